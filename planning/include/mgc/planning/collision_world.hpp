@@ -1,0 +1,107 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mgc/planning/machine_model.hpp"
+#include "mgc/planning/obstacle.hpp"
+
+namespace mgc::planning {
+
+//! What a configuration hits: a machine body and a static obstacle, a dynamic obstacle, or
+//! another body of the same machine.
+struct Contact {
+  enum class With : std::uint8_t { Nothing, Static, Dynamic, Self };
+  With with = With::Nothing;
+  int body = -1;   //!< index into MachineModel::bodies()
+  int other = -1;  //!< static obstacle index, dynamic obstacle index, or other body index
+};
+
+//! Why a configuration is not valid, checked cheapest first: joint ranges, the machine's
+//! engineering constraints, then collision.
+struct Validity {
+  enum class Status : std::int16_t { Valid = 0, JointOutOfRange = -310, Constraint = -311, Collision = -312 };
+  Status status = Status::Valid;
+  int joint = -1;                 //!< JointOutOfRange: the joint
+  ConstraintVerdict constraint;   //!< Constraint: the rule that failed
+  Contact contact;                //!< Collision: what hit what
+
+  [[nodiscard]] bool valid() const noexcept { return status == Status::Valid; }
+};
+
+//! Nearest obstacle to the machine at one configuration.
+struct Clearance {
+  double distance_m = 0.0;  //!< between the dilated bodies and the nearest obstacle; 0 in contact [m]
+  int body = -1;            //!< machine body nearest to an obstacle
+  Contact::With with = Contact::With::Nothing;
+  int other = -1;           //!< static or dynamic obstacle index
+};
+
+//! The site as FCL sees it: static obstacles in a dynamic-AABB-tree broad phase, dynamic
+//! obstacles whose poses change every cycle, and the machine's bodies posed by forward kinematics
+//! and dilated by a safety margin.
+//!
+//! Build with add_*() then finalize(); after that, queries and set_dynamic_pose() do not allocate.
+//! Queries pose the machine's own FCL objects, so a world is not shared between threads: give
+//! each planning thread its own.
+class CollisionWorld {
+ public:
+  //! The model must outlive the world. dilation_m is added around every machine body.
+  CollisionWorld(const MachineModel& model, double dilation_m);
+  ~CollisionWorld();
+  CollisionWorld(const CollisionWorld&) = delete;
+  CollisionWorld& operator=(const CollisionWorld&) = delete;
+
+  //! Adds before finalize(); returns the obstacle's index. Throws std::invalid_argument for a
+  //! degenerate shape (non-positive size, a mesh without triangles or with bad indices).
+  int add_static(StaticObstacle obstacle);
+  int add_dynamic(DynamicObstacle obstacle);
+  //! Builds the broad phase. Throws std::logic_error if called twice.
+  void finalize();
+
+  //! Moves a dynamic obstacle. RT-safe.
+  void set_dynamic_pose(int index, const Eigen::Isometry3d& world_from_obstacle) noexcept;
+  [[nodiscard]] const Eigen::Isometry3d& dynamic_pose(int index) const noexcept;
+
+  //! Collision only. RT-safe after finalize().
+  [[nodiscard]] bool is_free(const JointVector& q, Contact* contact = nullptr) noexcept;
+  //! Joint ranges, constraints, then collision.
+  [[nodiscard]] Validity validate(const JointVector& q) noexcept;
+  //! Validates the straight joint-space edge from -> to at every step, excluding `from` itself:
+  //! n = max_i ceil(|to_i - from_i| / max_step_i) steps (continuous joints the short way round).
+  //! On failure, `at` (if given) receives the first invalid configuration.
+  [[nodiscard]] Validity validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
+                                       JointVector* at = nullptr) noexcept;
+  //! Distance from the dilated machine to the nearest static or dynamic obstacle.
+  [[nodiscard]] Clearance clearance(const JointVector& q) noexcept;
+
+  [[nodiscard]] const MachineModel& model() const noexcept { return model_; }
+  [[nodiscard]] double dilation_m() const noexcept { return dilation_m_; }
+  [[nodiscard]] int num_static() const noexcept { return static_cast<int>(static_names_.size()); }
+  [[nodiscard]] int num_dynamic() const noexcept;
+  [[nodiscard]] const std::string& static_name(int index) const { return static_names_.at(static_cast<std::size_t>(index)); }
+  [[nodiscard]] const std::string& dynamic_name(int index) const;
+  //! "boom hits static obstacle 'frame/column[2,1,0]'" and the like.
+  [[nodiscard]] std::string describe(const Contact& contact) const;
+  [[nodiscard]] std::string describe(const Validity& validity) const;
+
+  //! Collision queries made since construction (one per configuration checked).
+  [[nodiscard]] std::uint64_t collision_checks() const noexcept { return collision_checks_; }
+
+ private:
+  struct Impl;
+  void pose_machine(const JointVector& q) noexcept;
+
+  const MachineModel& model_;
+  double dilation_m_ = 0.0;
+  std::vector<std::string> static_names_;
+  std::unique_ptr<Impl> impl_;
+  std::uint64_t collision_checks_ = 0;
+};
+
+}  // namespace mgc::planning

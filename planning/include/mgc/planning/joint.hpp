@@ -1,0 +1,42 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+
+#include "mgc/limits.hpp"
+
+namespace mgc::planning {
+
+//! A configuration: one value per joint, in the joint's SI unit (rad for revolute, m for
+//! prismatic). Storage is inline (at most kMaxJoints), so copies never allocate.
+using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxJoints, 1>;
+
+enum class JointType : std::uint8_t { Revolute, Prismatic };
+
+//! One actuated joint of a machine model. Positions, velocities, accelerations and jerks are in
+//! the joint's unit: rad, rad/s, rad/s^2, rad/s^3 for revolute joints; m, m/s, m/s^2, m/s^3 for
+//! prismatic ones (see unit()).
+struct JointSpec {
+  std::string name;                  //!< e.g. "swing", "boom_elevation"
+  JointType type = JointType::Revolute;
+  bool continuous = false;           //!< revolute joint without end stops: positions wrap
+  double position_min = 0.0;         //!< [rad | m]
+  double position_max = 0.0;         //!< [rad | m]
+  double max_velocity = 0.0;         //!< [rad/s | m/s]
+  double max_acceleration = 0.0;     //!< [rad/s^2 | m/s^2]
+  double max_jerk = 0.0;             //!< [rad/s^3 | m/s^3]
+
+  [[nodiscard]] const char* unit() const noexcept { return type == JointType::Revolute ? "rad" : "m"; }
+  [[nodiscard]] double range() const noexcept { return position_max - position_min; }
+  //! True when value lies within [position_min, position_max]; a continuous joint accepts any
+  //! finite value (it is wrapped first).
+  [[nodiscard]] bool contains(double value) const noexcept;
+};
+
+//! Wraps an angle into [-pi, pi). [rad]
+[[nodiscard]] double wrap_angle(double angle_rad) noexcept;
+
+}  // namespace mgc::planning

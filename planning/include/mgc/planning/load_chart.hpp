@@ -1,0 +1,69 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "mgc/planning/constraint.hpp"
+
+namespace mgc::planning {
+
+inline constexpr double kMetresPerFoot = 0.3048;
+inline constexpr double kKilogramsPerPound = 0.45359237;
+
+//! A mobile crane's rated-capacity chart as published (feet, pounds, degrees), for one rigging:
+//! outrigger state and counterweight. Rows are boom lengths, columns are load radii; a cell
+//! holds the rated capacity and the chart's boom angle, or NaN where the chart has no entry.
+struct LoadChart {
+  std::string rating;                     //!< e.g. "85% domestic"
+  std::string outriggers;                 //!< rigging the chart is valid for, e.g. "fully_extended"
+  double counterweight_lb = 0.0;          //!< [lb]
+  std::vector<double> boom_lengths_ft;    //!< strictly ascending [ft]
+  std::vector<double> radii_ft;           //!< strictly ascending [ft]
+  std::vector<std::vector<double>> capacity_lb;                  //!< [row][column] [lb] [n/a: NaN]
+  std::vector<std::vector<double>> max_angle_from_vertical_deg;  //!< [row][column] [deg] [n/a: NaN]
+};
+
+//! The thesis's load-chart rule (ICE-Planner App. G, "LVA") for one load: the boom-length row is
+//! the first chart boom length at or above the actual one; in that row the largest radius whose
+//! capacity covers the load sets the maximum boom angle from vertical, i.e. the minimum boom
+//! elevation. Computed once per load so a check is a search over a handful of rows.
+class LoadChartRule {
+ public:
+  //! load_lb already includes any capacity reduction. Throws std::invalid_argument when no row
+  //! of the chart rates the load at all.
+  LoadChartRule(const LoadChart& chart, double load_lb);
+
+  //! Checks a boom length [m] and boom elevation above horizontal [rad]. RT-safe.
+  [[nodiscard]] ConstraintVerdict check(double boom_length_m, double boom_elevation_rad) const noexcept;
+
+  //! Minimum boom elevation [rad] for the row that covers boom_length_m, with the cell used;
+  //! status says when the boom length or load is outside the chart.
+  [[nodiscard]] ConstraintVerdict min_elevation(double boom_length_m) const noexcept;
+
+  [[nodiscard]] double load_lb() const noexcept { return load_lb_; }
+
+ private:
+  struct Row {
+    double boom_length_m = 0.0;
+    int column = -1;                 //!< -1: no radius of this row rates the load
+    double min_elevation_rad = 0.0;
+  };
+  std::vector<Row> rows_;
+  double load_lb_ = 0.0;
+};
+
+//! Seed 000's Table 1: the luffing-angle range per boom length for one lift task, an
+//! alternative to the load-chart rule. Between two rows the range is the conservative
+//! intersection of both rows (the larger minimum and the smaller maximum), because the paper
+//! gives no interpolation and the feasible region is not convex.
+struct LuffRangeTable {
+  std::vector<double> boom_lengths_ft;  //!< strictly ascending [ft]
+  std::vector<double> luff_min_deg;     //!< [deg] above horizontal
+  std::vector<double> luff_max_deg;     //!< [deg] above horizontal
+
+  //! Elevation [rad] against the range at boom_length_m. RT-safe.
+  [[nodiscard]] ConstraintVerdict check(double boom_length_m, double boom_elevation_rad) const noexcept;
+};
+
+}  // namespace mgc::planning

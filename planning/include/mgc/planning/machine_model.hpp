@@ -1,0 +1,113 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mgc/limits.hpp"
+#include "mgc/planning/constraint.hpp"
+#include "mgc/planning/joint.hpp"
+
+namespace mgc::planning {
+
+enum class MachineKind : std::uint8_t { MobileCrane, TowerCrane, Excavator };
+
+[[nodiscard]] const char* to_string(MachineKind kind) noexcept;
+
+enum class BodyShape : std::uint8_t {
+  Box,      //!< size_m = full extents along the body's x, y, z axes
+  Capsule,  //!< size_m = (2 r, 2 r, length of the cylindrical part along body z)
+};
+
+//! A collision body of a machine. Bodies whose size depends on the configuration (a telescopic
+//! boom, a hoist cable) are `resizable`; the collision world resizes their shapes in place.
+struct BodySpec {
+  std::string name;
+  BodyShape shape = BodyShape::Box;
+  bool resizable = false;
+};
+
+//! Pose and current size of one body. [m]
+struct BodyState {
+  Eigen::Isometry3d world_from_body = Eigen::Isometry3d::Identity();  //!< body centre and axes
+  Eigen::Vector3d size_m = Eigen::Vector3d::Zero();                   //!< see BodyShape [m]
+};
+
+//! Two bodies of the same machine that may hit each other (a load swung into its own carrier).
+struct SelfPair {
+  int body_a = 0;
+  int body_b = 0;
+};
+
+//! Everything forward kinematics gives for one configuration: the kinematic frames of the chain,
+//! the collision bodies and the named key points, all in world coordinates. Fixed capacity.
+struct Kinematics {
+  std::array<Eigen::Isometry3d, kMaxFrames> frames{};
+  std::array<BodyState, kMaxBodies> bodies{};
+  std::array<Eigen::Vector3d, kMaxKeyPoints> points{};
+};
+
+//! A machine: its joints with limits, its kinematic chain, its collision bodies and its
+//! engineering constraints. Immutable after construction; every const member is thread-safe and
+//! RT-safe (no allocation, no throw) unless it says otherwise.
+class MachineModel {
+ public:
+  virtual ~MachineModel() = default;
+  MachineModel(const MachineModel&) = delete;
+  MachineModel& operator=(const MachineModel&) = delete;
+
+  [[nodiscard]] virtual MachineKind kind() const noexcept = 0;
+  [[nodiscard]] const std::string& name() const noexcept { return name_; }
+
+  [[nodiscard]] int dof() const noexcept { return static_cast<int>(joints_.size()); }
+  [[nodiscard]] std::span<const JointSpec> joints() const noexcept { return joints_; }
+  [[nodiscard]] std::span<const std::string> frame_names() const noexcept { return frame_names_; }
+  [[nodiscard]] std::span<const BodySpec> bodies() const noexcept { return bodies_; }
+  [[nodiscard]] std::span<const std::string> key_point_names() const noexcept { return key_point_names_; }
+  [[nodiscard]] std::span<const SelfPair> self_pairs() const noexcept { return self_pairs_; }
+  //! Index of the named joint, frame, body or key point, or -1.
+  [[nodiscard]] int joint_index(std::string_view name) const noexcept;
+  [[nodiscard]] int body_index(std::string_view name) const noexcept;
+  [[nodiscard]] int key_point_index(std::string_view name) const noexcept;
+
+  //! Pose of the machine's base (carrier, crane foundation, undercarriage) on the site.
+  [[nodiscard]] const Eigen::Isometry3d& world_from_base() const noexcept { return world_from_base_; }
+
+  //! Frames, bodies and key points for q, in world coordinates. q must have dof() entries.
+  virtual void forward_kinematics(const JointVector& q, Kinematics& out) const noexcept = 0;
+
+  //! The machine's engineering constraints at q (load chart, luff range, load above ground, ...),
+  //! joint ranges excluded. The default has none.
+  [[nodiscard]] virtual ConstraintVerdict check_constraints(const JointVector& q) const noexcept;
+
+  //! First joint outside its range, or -1. Continuous joints accept any finite value.
+  [[nodiscard]] int joint_out_of_range(const JointVector& q) const noexcept;
+
+  //! to - from per joint; continuous joints take the shorter way round. [rad | m]
+  [[nodiscard]] JointVector difference(const JointVector& from, const JointVector& to) const noexcept;
+  //! from + t (to - from) along difference(); continuous joints are re-wrapped into [-pi, pi).
+  [[nodiscard]] JointVector interpolate(const JointVector& from, const JointVector& to, double t) const noexcept;
+
+ protected:
+  MachineModel(std::string name, std::vector<JointSpec> joints, const Eigen::Isometry3d& world_from_base);
+
+  std::string name_;
+  std::vector<JointSpec> joints_;
+  std::vector<std::string> frame_names_;
+  std::vector<BodySpec> bodies_;
+  std::vector<std::string> key_point_names_;
+  std::vector<SelfPair> self_pairs_;
+  Eigen::Isometry3d world_from_base_ = Eigen::Isometry3d::Identity();
+};
+
+//! Craig's (modified) Denavit–Hartenberg link transform, the form of the thesis's Eq. 2.1:
+//! RotX(alpha_prev) * TransX(a_prev) * RotZ(theta) * TransZ(d).
+[[nodiscard]] Eigen::Isometry3d dh_modified(double alpha_prev_rad, double a_prev_m, double theta_rad,
+                                            double d_m) noexcept;
+
+}  // namespace mgc::planning

@@ -1,0 +1,385 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/planning/collision_world.hpp"
+
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+#include <fcl/geometry/bvh/BVH_model.h>
+#include <fcl/geometry/shape/box.h>
+#include <fcl/geometry/shape/capsule.h>
+#include <fcl/geometry/shape/cylinder.h>
+#include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/distance.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+
+namespace mgc::planning {
+
+const char* to_string(ShapeKind kind) noexcept {
+  switch (kind) {
+    case ShapeKind::Box: return "box";
+    case ShapeKind::Cylinder: return "cylinder";
+    case ShapeKind::Capsule: return "capsule";
+    case ShapeKind::Mesh: return "mesh";
+  }
+  return "unknown";
+}
+
+namespace {
+
+using CollisionObject = fcl::CollisionObjectd;
+using GeometryPtr = std::shared_ptr<fcl::CollisionGeometryd>;
+
+bool positive_finite(const Eigen::Vector3d& v) { return v.allFinite() && (v.array() > 0.0).all(); }
+
+GeometryPtr make_geometry(const ShapePart& part) {
+  switch (part.kind) {
+    case ShapeKind::Box:
+      if (!positive_finite(part.size_m)) throw std::invalid_argument("box size must be three positive numbers");
+      return std::make_shared<fcl::Boxd>(part.size_m);
+    case ShapeKind::Cylinder:
+      if (!positive_finite(part.size_m)) throw std::invalid_argument("cylinder radius and length must be positive");
+      return std::make_shared<fcl::Cylinderd>(0.5 * part.size_m.x(), part.size_m.z());
+    case ShapeKind::Capsule:
+      if (!positive_finite(part.size_m)) throw std::invalid_argument("capsule radius and length must be positive");
+      return std::make_shared<fcl::Capsuled>(0.5 * part.size_m.x(), part.size_m.z());
+    case ShapeKind::Mesh: {
+      if (part.triangles.empty()) throw std::invalid_argument("mesh has no triangles");
+      const int n = static_cast<int>(part.vertices_m.size());
+      for (const auto& v : part.vertices_m) {
+        if (!v.allFinite()) throw std::invalid_argument("mesh vertex is not finite");
+      }
+      std::vector<fcl::Triangle> triangles;
+      triangles.reserve(part.triangles.size());
+      for (const auto& t : part.triangles) {
+        if ((t.array() < 0).any() || (t.array() >= n).any()) {
+          throw std::invalid_argument("mesh triangle index outside the vertex list");
+        }
+        triangles.emplace_back(static_cast<std::size_t>(t.x()), static_cast<std::size_t>(t.y()),
+                               static_cast<std::size_t>(t.z()));
+      }
+      auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
+      model->beginModel();
+      model->addSubModel(part.vertices_m, triangles);
+      model->endModel();
+      model->computeLocalAABB();
+      return model;
+    }
+  }
+  throw std::invalid_argument("unknown shape kind");
+}
+
+// Obstacle indices travel through FCL as user data.
+void* encode_index(int index) { return reinterpret_cast<void*>(static_cast<std::intptr_t>(index) + 1); }
+int decode_index(void* data) { return static_cast<int>(reinterpret_cast<std::intptr_t>(data) - 1); }
+
+struct CollideData {
+  const fcl::CollisionRequestd* request = nullptr;
+  fcl::CollisionResultd* result = nullptr;
+  int hit = -1;
+};
+
+bool collide_callback(CollisionObject* a, CollisionObject* b, void* raw) {
+  auto* data = static_cast<CollideData*>(raw);
+  data->result->clear();
+  fcl::collide(a, b, *data->request, *data->result);
+  if (!data->result->isCollision()) return false;
+  // The machine body carries no user data; the obstacle does.
+  data->hit = decode_index(a->getUserData() != nullptr ? a->getUserData() : b->getUserData());
+  return true;
+}
+
+struct DistanceData {
+  const fcl::DistanceRequestd* request = nullptr;
+  fcl::DistanceResultd* result = nullptr;
+  double best = std::numeric_limits<double>::infinity();
+  int nearest = -1;
+};
+
+bool distance_callback(CollisionObject* a, CollisionObject* b, void* raw, double& dist) {
+  auto* data = static_cast<DistanceData*>(raw);
+  data->result->clear();
+  fcl::distance(a, b, *data->request, *data->result);
+  const double d = std::max(0.0, data->result->min_distance);
+  if (d < data->best) {
+    data->best = d;
+    data->nearest = decode_index(a->getUserData() != nullptr ? a->getUserData() : b->getUserData());
+  }
+  dist = data->best;
+  return data->best <= 0.0;
+}
+
+}  // namespace
+
+struct CollisionWorld::Impl {
+  struct Body {
+    std::shared_ptr<fcl::Boxd> box;
+    std::shared_ptr<fcl::Capsuled> capsule;
+    std::unique_ptr<CollisionObject> object;
+  };
+  struct DynamicPart {
+    std::unique_ptr<CollisionObject> object;
+    Eigen::Isometry3d obstacle_from_part;
+  };
+  struct Dynamic {
+    std::string name;
+    std::vector<DynamicPart> parts;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  };
+
+  std::vector<Body> bodies;
+  std::vector<std::unique_ptr<CollisionObject>> statics;
+  std::vector<Dynamic> dynamics;
+  fcl::DynamicAABBTreeCollisionManagerd manager;
+  bool finalized = false;
+  Kinematics kinematics;
+
+  fcl::CollisionRequestd collision_request;
+  fcl::CollisionResultd collision_result;
+  fcl::DistanceRequestd distance_request;
+  fcl::DistanceResultd distance_result;
+};
+
+CollisionWorld::CollisionWorld(const MachineModel& model, double dilation_m)
+    : model_(model), dilation_m_(dilation_m), impl_(std::make_unique<Impl>()) {
+  if (!(dilation_m >= 0.0) || !std::isfinite(dilation_m)) throw std::invalid_argument("dilation must be >= 0");
+  impl_->bodies.reserve(model.bodies().size());
+  for (const BodySpec& spec : model.bodies()) {
+    Impl::Body body;
+    GeometryPtr geometry;
+    // Placeholder sizes; pose_machine() sets the real (dilated) ones before every query.
+    if (spec.shape == BodyShape::Box) {
+      body.box = std::make_shared<fcl::Boxd>(1.0, 1.0, 1.0);
+      geometry = body.box;
+    } else {
+      body.capsule = std::make_shared<fcl::Capsuled>(0.5, 1.0);
+      geometry = body.capsule;
+    }
+    body.object = std::make_unique<CollisionObject>(geometry);
+    impl_->bodies.push_back(std::move(body));
+  }
+  // One contact is all a yes/no query needs; reserving it keeps a hit from allocating.
+  impl_->collision_request.num_max_contacts = 1;
+  impl_->collision_request.enable_contact = false;
+}
+
+CollisionWorld::~CollisionWorld() = default;
+
+int CollisionWorld::add_static(StaticObstacle obstacle) {
+  if (impl_->finalized) throw std::logic_error("add_static after finalize");
+  auto object = std::make_unique<CollisionObject>(make_geometry(obstacle.shape));
+  object->setTransform(obstacle.shape.pose);
+  object->computeAABB();
+  const int index = static_cast<int>(impl_->statics.size());
+  object->setUserData(encode_index(index));
+  impl_->statics.push_back(std::move(object));
+  static_names_.push_back(std::move(obstacle.name));
+  return index;
+}
+
+int CollisionWorld::add_dynamic(DynamicObstacle obstacle) {
+  if (impl_->finalized) throw std::logic_error("add_dynamic after finalize");
+  if (obstacle.parts.empty()) throw std::invalid_argument("dynamic obstacle has no parts");
+  const int index = static_cast<int>(impl_->dynamics.size());
+  Impl::Dynamic dynamic;
+  dynamic.name = std::move(obstacle.name);
+  for (const ShapePart& part : obstacle.parts) {
+    Impl::DynamicPart p;
+    p.object = std::make_unique<CollisionObject>(make_geometry(part));
+    p.object->setUserData(encode_index(index));
+    p.obstacle_from_part = part.pose;
+    p.object->setTransform(part.pose);
+    p.object->computeAABB();
+    dynamic.parts.push_back(std::move(p));
+  }
+  impl_->dynamics.push_back(std::move(dynamic));
+  return index;
+}
+
+void CollisionWorld::finalize() {
+  if (impl_->finalized) throw std::logic_error("finalize called twice");
+  std::vector<CollisionObject*> objects;
+  objects.reserve(impl_->statics.size());
+  for (auto& o : impl_->statics) objects.push_back(o.get());
+  impl_->manager.registerObjects(objects);
+  impl_->manager.setup();
+  impl_->collision_result.clear();
+  impl_->finalized = true;
+}
+
+int CollisionWorld::num_dynamic() const noexcept { return static_cast<int>(impl_->dynamics.size()); }
+
+const std::string& CollisionWorld::dynamic_name(int index) const {
+  return impl_->dynamics.at(static_cast<std::size_t>(index)).name;
+}
+
+void CollisionWorld::set_dynamic_pose(int index, const Eigen::Isometry3d& world_from_obstacle) noexcept {
+  auto& dynamic = impl_->dynamics[static_cast<std::size_t>(index)];
+  dynamic.pose = world_from_obstacle;
+  for (auto& part : dynamic.parts) {
+    part.object->setTransform(world_from_obstacle * part.obstacle_from_part);
+    part.object->computeAABB();
+  }
+}
+
+const Eigen::Isometry3d& CollisionWorld::dynamic_pose(int index) const noexcept {
+  return impl_->dynamics[static_cast<std::size_t>(index)].pose;
+}
+
+void CollisionWorld::pose_machine(const JointVector& q) noexcept {
+  model_.forward_kinematics(q, impl_->kinematics);
+  const double m = dilation_m_;
+  for (std::size_t i = 0; i < impl_->bodies.size(); ++i) {
+    auto& body = impl_->bodies[i];
+    const BodyState& state = impl_->kinematics.bodies[i];
+    // Shapes are resized in place (FCL primitives are plain data), so a telescoping boom or a
+    // paying-out cable needs no new geometry.
+    if (body.box) {
+      body.box->side = state.size_m + Eigen::Vector3d::Constant(2.0 * m);
+      body.box->computeLocalAABB();
+    } else {
+      body.capsule->radius = 0.5 * state.size_m.x() + m;
+      body.capsule->lz = state.size_m.z();
+      body.capsule->computeLocalAABB();
+    }
+    body.object->setTransform(state.world_from_body);
+    body.object->computeAABB();
+  }
+}
+
+bool CollisionWorld::is_free(const JointVector& q, Contact* contact) noexcept {
+  ++collision_checks_;
+  pose_machine(q);
+  auto& impl = *impl_;
+  CollideData data{&impl.collision_request, &impl.collision_result, -1};
+  const int num_bodies = static_cast<int>(impl.bodies.size());
+  for (int b = 0; b < num_bodies; ++b) {
+    CollisionObject* body = impl.bodies[static_cast<std::size_t>(b)].object.get();
+    impl.manager.collide(body, &data, collide_callback);
+    if (data.hit >= 0) {
+      if (contact) *contact = {Contact::With::Static, b, data.hit};
+      return false;
+    }
+    for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
+      for (auto& part : impl.dynamics[d].parts) {
+        if (!body->getAABB().overlap(part.object->getAABB())) continue;
+        impl.collision_result.clear();
+        fcl::collide(body, part.object.get(), impl.collision_request, impl.collision_result);
+        if (impl.collision_result.isCollision()) {
+          if (contact) *contact = {Contact::With::Dynamic, b, static_cast<int>(d)};
+          return false;
+        }
+      }
+    }
+  }
+  for (const SelfPair& pair : model_.self_pairs()) {
+    CollisionObject* a = impl.bodies[static_cast<std::size_t>(pair.body_a)].object.get();
+    CollisionObject* b = impl.bodies[static_cast<std::size_t>(pair.body_b)].object.get();
+    if (!a->getAABB().overlap(b->getAABB())) continue;
+    impl.collision_result.clear();
+    fcl::collide(a, b, impl.collision_request, impl.collision_result);
+    if (impl.collision_result.isCollision()) {
+      if (contact) *contact = {Contact::With::Self, pair.body_a, pair.body_b};
+      return false;
+    }
+  }
+  if (contact) *contact = {};
+  return true;
+}
+
+Validity CollisionWorld::validate(const JointVector& q) noexcept {
+  Validity v;
+  v.joint = model_.joint_out_of_range(q);
+  if (v.joint >= 0) {
+    v.status = Validity::Status::JointOutOfRange;
+    return v;
+  }
+  v.constraint = model_.check_constraints(q);
+  if (!v.constraint.ok()) {
+    v.status = Validity::Status::Constraint;
+    return v;
+  }
+  if (!is_free(q, &v.contact)) v.status = Validity::Status::Collision;
+  return v;
+}
+
+Validity CollisionWorld::validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
+                                       JointVector* at) noexcept {
+  const JointVector delta = model_.difference(from, to);
+  int steps = 1;
+  for (int i = 0; i < model_.dof(); ++i) {
+    steps = std::max(steps, static_cast<int>(std::ceil(std::abs(delta[i]) / max_step[i] - 1e-12)));
+  }
+  for (int k = 1; k <= steps; ++k) {
+    const JointVector q = k == steps ? to : model_.interpolate(from, to, static_cast<double>(k) / steps);
+    Validity v = validate(q);
+    if (!v.valid()) {
+      if (at) *at = q;
+      return v;
+    }
+  }
+  return {};
+}
+
+Clearance CollisionWorld::clearance(const JointVector& q) noexcept {
+  Clearance c;
+  Contact contact;
+  if (!is_free(q, &contact)) {
+    c.distance_m = 0.0;
+    c.body = contact.body;
+    c.with = contact.with;
+    c.other = contact.other;
+    return c;
+  }
+  auto& impl = *impl_;
+  c.distance_m = std::numeric_limits<double>::infinity();
+  for (std::size_t b = 0; b < impl.bodies.size(); ++b) {
+    CollisionObject* body = impl.bodies[b].object.get();
+    DistanceData data{&impl.distance_request, &impl.distance_result};
+    impl.manager.distance(body, &data, distance_callback);
+    if (data.nearest >= 0 && data.best < c.distance_m) {
+      c = {data.best, static_cast<int>(b), Contact::With::Static, data.nearest};
+    }
+    for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
+      for (auto& part : impl.dynamics[d].parts) {
+        impl.distance_result.clear();
+        fcl::distance(body, part.object.get(), impl.distance_request, impl.distance_result);
+        const double dist = std::max(0.0, impl.distance_result.min_distance);
+        if (dist < c.distance_m) c = {dist, static_cast<int>(b), Contact::With::Dynamic, static_cast<int>(d)};
+      }
+    }
+  }
+  return c;
+}
+
+std::string CollisionWorld::describe(const Contact& contact) const {
+  const auto body_name = [&](int i) {
+    return i >= 0 && i < static_cast<int>(model_.bodies().size()) ? model_.bodies()[static_cast<std::size_t>(i)].name
+                                                                    : std::string("?");
+  };
+  switch (contact.with) {
+    case Contact::With::Nothing: return "no contact";
+    case Contact::With::Static: return body_name(contact.body) + " hits obstacle '" + static_name(contact.other) + "'";
+    case Contact::With::Dynamic:
+      return body_name(contact.body) + " hits dynamic obstacle '" + dynamic_name(contact.other) + "'";
+    case Contact::With::Self: return body_name(contact.body) + " hits the machine's own " + body_name(contact.other);
+  }
+  return "unknown contact";
+}
+
+std::string CollisionWorld::describe(const Validity& validity) const {
+  switch (validity.status) {
+    case Validity::Status::Valid: return "valid";
+    case Validity::Status::JointOutOfRange: {
+      const JointSpec& j = model_.joints()[static_cast<std::size_t>(validity.joint)];
+      return "joint '" + j.name + "' outside its range";
+    }
+    case Validity::Status::Constraint: return std::string("engineering constraint: ") + to_string(validity.constraint.status);
+    case Validity::Status::Collision: return "collision: " + describe(validity.contact);
+  }
+  return "unknown";
+}
+
+}  // namespace mgc::planning

@@ -1,0 +1,105 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/planning/machine_model.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <utility>
+
+namespace mgc::planning {
+
+double wrap_angle(double angle_rad) noexcept {
+  constexpr double kTwoPi = 2.0 * std::numbers::pi;
+  double wrapped = std::fmod(angle_rad + std::numbers::pi, kTwoPi);
+  if (wrapped < 0.0) wrapped += kTwoPi;
+  return wrapped - std::numbers::pi;
+}
+
+bool JointSpec::contains(double value) const noexcept {
+  if (!std::isfinite(value)) return false;
+  if (continuous) return true;
+  return value >= position_min && value <= position_max;
+}
+
+const char* to_string(MachineKind kind) noexcept {
+  switch (kind) {
+    case MachineKind::MobileCrane: return "mobile_crane";
+    case MachineKind::TowerCrane: return "tower_crane";
+    case MachineKind::Excavator: return "excavator";
+  }
+  return "unknown";
+}
+
+const char* to_string(ConstraintStatus status) noexcept {
+  switch (status) {
+    case ConstraintStatus::Ok: return "ok";
+    case ConstraintStatus::BoomLengthOutsideChart: return "boom length outside the chart";
+    case ConstraintStatus::LoadAboveChart: return "load above every capacity of the chart row";
+    case ConstraintStatus::BoomBelowChartAngle: return "boom elevation below the chart minimum";
+    case ConstraintStatus::BoomAboveChartAngle: return "boom elevation above the allowed maximum";
+    case ConstraintStatus::LoadBelowGround: return "load below the ground";
+    case ConstraintStatus::CableTooShort: return "cable too short";
+  }
+  return "unknown";
+}
+
+MachineModel::MachineModel(std::string name, std::vector<JointSpec> joints,
+                           const Eigen::Isometry3d& world_from_base)
+    : name_(std::move(name)), joints_(std::move(joints)), world_from_base_(world_from_base) {}
+
+namespace {
+template <class Range, class Key>
+int index_of(const Range& range, std::string_view name, Key key) {
+  int i = 0;
+  for (const auto& item : range) {
+    if (key(item) == name) return i;
+    ++i;
+  }
+  return -1;
+}
+}  // namespace
+
+int MachineModel::joint_index(std::string_view name) const noexcept {
+  return index_of(joints_, name, [](const JointSpec& j) -> const std::string& { return j.name; });
+}
+int MachineModel::body_index(std::string_view name) const noexcept {
+  return index_of(bodies_, name, [](const BodySpec& b) -> const std::string& { return b.name; });
+}
+int MachineModel::key_point_index(std::string_view name) const noexcept {
+  return index_of(key_point_names_, name, [](const std::string& s) -> const std::string& { return s; });
+}
+
+ConstraintVerdict MachineModel::check_constraints(const JointVector& /*q*/) const noexcept { return {}; }
+
+int MachineModel::joint_out_of_range(const JointVector& q) const noexcept {
+  for (int i = 0; i < dof(); ++i) {
+    if (!joints_[static_cast<std::size_t>(i)].contains(q[i])) return i;
+  }
+  return -1;
+}
+
+JointVector MachineModel::difference(const JointVector& from, const JointVector& to) const noexcept {
+  JointVector d = to - from;
+  for (int i = 0; i < dof(); ++i) {
+    if (joints_[static_cast<std::size_t>(i)].continuous) d[i] = wrap_angle(d[i]);
+  }
+  return d;
+}
+
+JointVector MachineModel::interpolate(const JointVector& from, const JointVector& to, double t) const noexcept {
+  JointVector q = from + t * difference(from, to);
+  for (int i = 0; i < dof(); ++i) {
+    if (joints_[static_cast<std::size_t>(i)].continuous) q[i] = wrap_angle(q[i]);
+  }
+  return q;
+}
+
+Eigen::Isometry3d dh_modified(double alpha_prev_rad, double a_prev_m, double theta_rad, double d_m) noexcept {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.rotate(Eigen::AngleAxisd(alpha_prev_rad, Eigen::Vector3d::UnitX()));
+  t.translate(Eigen::Vector3d(a_prev_m, 0.0, 0.0));
+  t.rotate(Eigen::AngleAxisd(theta_rad, Eigen::Vector3d::UnitZ()));
+  t.translate(Eigen::Vector3d(0.0, 0.0, d_m));
+  return t;
+}
+
+}  // namespace mgc::planning

@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/planning/mobile_crane.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <utility>
+
+namespace mgc::planning {
+
+MobileCrane::MobileCrane(std::string name, std::vector<JointSpec> joints, const MobileCraneGeometry& geometry,
+                         const LoadChart& chart, std::optional<LuffRangeTable> luff_table, const LiftTask& task,
+                         const Eigen::Isometry3d& world_from_base)
+    : MachineModel(std::move(name), std::move(joints), world_from_base),
+      geometry_(geometry),
+      chart_(chart),
+      luff_table_(std::move(luff_table)),
+      task_(task) {
+  static constexpr const char* kJointNames[] = {"swing", "boom_elevation", "boom_length", "cable_length"};
+  static constexpr JointType kJointTypes[] = {JointType::Revolute, JointType::Revolute, JointType::Prismatic,
+                                              JointType::Prismatic};
+  if (joints_.size() != 4) throw std::invalid_argument("a mobile crane has 4 joints: swing, boom_elevation, boom_length, cable_length");
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (joints_[i].name != kJointNames[i] || joints_[i].type != kJointTypes[i]) {
+      throw std::invalid_argument(std::string("mobile crane joint ") + std::to_string(i) + " must be '" +
+                                  kJointNames[i] + "' (" + (kJointTypes[i] == JointType::Revolute ? "revolute" : "prismatic") + ")");
+    }
+  }
+  if (task_.constraint == CraneConstraintMode::LoadChart) {
+    rule_.emplace(chart_, task_.load_lb * (100.0 + task_.capacity_reduction_pct) / 100.0);
+  }
+  if (task_.constraint == CraneConstraintMode::LuffTable && !luff_table_) {
+    throw std::invalid_argument("the luff-table constraint needs a luff range table in the machine");
+  }
+  frame_names_ = {"base", "swing", "boom_foot", "boom_tip", "hook"};
+  bodies_ = {{"carrier", BodyShape::Box, false},
+             {"superstructure", BodyShape::Box, false},
+             {"boom", BodyShape::Box, true},
+             {"cable", BodyShape::Capsule, true},
+             {"load", BodyShape::Box, false}};
+  key_point_names_ = {"boom_foot", "boom_tip", "hook", "load_bottom"};
+  self_pairs_ = {{kLoad, kCarrier}, {kLoad, kSuperstructure}};
+}
+
+void MobileCrane::forward_kinematics(const JointVector& q, Kinematics& out) const noexcept {
+  const double swing = q[kSwing];
+  const double elevation = q[kBoomElevation];
+  const double boom_length = q[kBoomLength];
+  const double cable_length = q[kCableLength];
+  const auto& g = geometry_;
+
+  // The thesis chain, in its z-down frame {0}.
+  const Eigen::Isometry3d world_from_thesis0 =
+      world_from_base_ * Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX());
+  const double theta1 = -swing;
+  const double theta2 = 0.5 * std::numbers::pi - elevation;
+  const Eigen::Isometry3d f1 = world_from_thesis0 * dh_modified(0.0, 0.0, theta1, -g.boom_foot_height_m);
+  const Eigen::Isometry3d f2 = f1 * dh_modified(0.5 * std::numbers::pi, g.boom_foot_forward_m, theta2, 0.0);
+  const Eigen::Isometry3d f3 = f2 * dh_modified(0.5 * std::numbers::pi, 0.0, 0.0, boom_length);
+  // Zero-length link {Z}: 3R_Z = (1R2 2R3)^T cancels the boom's pitch, so {Z} keeps the swing
+  // frame's axes at the boom tip and the cable runs along the thesis's z, straight down.
+  Eigen::Isometry3d fz = f1;
+  fz.translation() = f3.translation();
+  const Eigen::Isometry3d f4 = fz * Eigen::Translation3d(0.0, 0.0, cable_length);
+
+  out.frames[kFrameBase] = world_from_base_;
+  out.frames[kFrameSwing] = f1;
+  out.frames[kFrameBoomFoot] = f2;
+  out.frames[kFrameBoomTip] = f3;
+  out.frames[kFrameHook] = f4;
+
+  const Eigen::Vector3d foot = f2.translation();
+  const Eigen::Vector3d tip = f3.translation();
+  const Eigen::Vector3d hook = f4.translation();
+  const Eigen::Vector3d up = world_from_base_.linear().col(2);
+  // Bodies that turn with the swing use a z-up swing frame with x pointing along the boom.
+  Eigen::Isometry3d swing_frame = world_from_base_ * Eigen::AngleAxisd(swing, Eigen::Vector3d::UnitZ());
+
+  auto& carrier = out.bodies[kCarrier];
+  carrier.world_from_body = world_from_base_ * Eigen::Translation3d(g.carrier_centre_m);
+  carrier.size_m = g.carrier_size_m;
+
+  auto& superstructure = out.bodies[kSuperstructure];
+  superstructure.world_from_body = swing_frame * Eigen::Translation3d(g.superstructure_centre_m);
+  superstructure.size_m = g.superstructure_size_m;
+
+  // Frame 3's z axis runs along the boom and its y axis along the luffing pin.
+  auto& boom = out.bodies[kBoom];
+  boom.world_from_body.linear() = f3.linear();
+  boom.world_from_body.translation() = 0.5 * (foot + tip);
+  boom.size_m = Eigen::Vector3d(g.boom_depth_m, g.boom_width_m, boom_length);
+
+  auto& cable = out.bodies[kCable];
+  cable.world_from_body.linear() = swing_frame.linear();
+  cable.world_from_body.translation() = 0.5 * (tip + hook);
+  cable.size_m = Eigen::Vector3d(2.0 * g.cable_radius_m, 2.0 * g.cable_radius_m, cable_length);
+
+  auto& load = out.bodies[kLoad];
+  load.world_from_body.linear() = swing_frame.linear();
+  load.world_from_body.translation() = hook - (task_.sling_length_m + 0.5 * task_.load_size_m.z()) * up;
+  load.size_m = task_.load_size_m;
+
+  out.points[kPointBoomFoot] = foot;
+  out.points[kPointBoomTip] = tip;
+  out.points[kPointHook] = hook;
+  out.points[kPointLoadBottom] = hook - (task_.sling_length_m + task_.load_size_m.z()) * up;
+}
+
+ConstraintVerdict MobileCrane::check_constraints(const JointVector& q) const noexcept {
+  ConstraintVerdict v;
+  switch (task_.constraint) {
+    case CraneConstraintMode::LoadChart: v = rule_->check(q[kBoomLength], q[kBoomElevation]); break;
+    case CraneConstraintMode::LuffTable: v = luff_table_->check(q[kBoomLength], q[kBoomElevation]); break;
+    case CraneConstraintMode::None: break;
+  }
+  if (!v.ok()) return v;
+  // The load hangs straight below the boom tip; its bottom must stay above the ground plane of
+  // the base. Touching (a load resting on the ground at the pick) is allowed.
+  const double tip_height_m = geometry_.boom_foot_height_m + q[kBoomLength] * std::sin(q[kBoomElevation]);
+  const double load_bottom_m = tip_height_m - q[kCableLength] - task_.sling_length_m - task_.load_size_m.z();
+  if (load_bottom_m < -1e-9) {
+    ConstraintVerdict g;
+    g.status = ConstraintStatus::LoadBelowGround;
+    g.value = load_bottom_m;
+    g.limit = 0.0;
+    return g;
+  }
+  return v;
+}
+
+double MobileCrane::load_radius_m(const JointVector& q) const noexcept {
+  return geometry_.boom_foot_forward_m + q[kBoomLength] * std::cos(q[kBoomElevation]);
+}
+
+}  // namespace mgc::planning
