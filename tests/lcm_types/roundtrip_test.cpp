@@ -1,0 +1,400 @@
+// SPDX-License-Identifier: Apache-2.0
+// Round-trip tests for the generated LCM types: every field survives
+// encode/decode, truncated input and foreign types are rejected, and a message
+// crosses the in-process memq:// transport.
+
+#include <mgc/alert_t.hpp>
+#include <mgc/machine_state_t.hpp>
+#include <mgc/operator_guidance_t.hpp>
+#include <mgc/plan_t.hpp>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace {
+
+using Bytes = std::vector<std::uint8_t>;
+
+// lcm-gen only accepts literal array sizes, so the .lcm repeats the capacity;
+// these keep the literal and the MAX_JOINTS constant from drifting apart.
+static_assert(std::extent_v<decltype(mgc::machine_state_t::joint_position)> ==
+              mgc::machine_state_t::MAX_JOINTS);
+static_assert(std::extent_v<decltype(mgc::machine_state_t::joint_velocity)> ==
+              mgc::machine_state_t::MAX_JOINTS);
+static_assert(std::extent_v<decltype(mgc::machine_state_t::joint_acceleration)> ==
+              mgc::machine_state_t::MAX_JOINTS);
+static_assert(std::extent_v<decltype(mgc::machine_state_t::joint_fault_flags)> ==
+              mgc::machine_state_t::MAX_JOINTS);
+
+// Fixed-size C arrays as std::array, so Catch compares them with == and prints
+// both sides on failure.
+template <class T, std::size_t N>
+std::array<T, N> as_array(const T (&values)[N]) {
+  return std::to_array(values);
+}
+
+template <class Msg>
+Bytes encode_checked(const Msg& msg) {
+  const int size = msg.getEncodedSize();
+  REQUIRE(size > 8);  // at least the 8-byte fingerprint plus utime
+  Bytes buf(static_cast<std::size_t>(size));
+  REQUIRE(msg.encode(buf.data(), 0, size) == size);
+  return buf;
+}
+
+template <class Msg>
+Msg decode_checked(const Bytes& buf) {
+  Msg out{};  // value-initialized: every field zero, unlike the filled message
+  const int size = static_cast<int>(buf.size());
+  REQUIRE(out.decode(buf.data(), 0, size) == size);
+  return out;
+}
+
+// Every strict prefix of a valid encoding must be rejected, not half-decoded.
+template <class Msg>
+void require_truncations_rejected(const Bytes& buf) {
+  const int size = static_cast<int>(buf.size());
+  REQUIRE(size > 8);
+  for (int len = 0; len < size; ++len) {
+    CAPTURE(len, size);
+    Msg out{};
+    REQUIRE(out.decode(buf.data(), 0, len) < 0);
+  }
+}
+
+// Encoding into a buffer one byte too small must fail instead of overrunning.
+template <class Msg>
+void require_short_buffer_rejected(const Msg& msg) {
+  const int size = msg.getEncodedSize();
+  Bytes buf(static_cast<std::size_t>(size));
+  REQUIRE(msg.encode(buf.data(), 0, size - 1) < 0);
+}
+
+mgc::machine_state_t make_machine_state() {
+  mgc::machine_state_t m{};
+  m.utime = 0x0123456789ABCDEFLL;
+  m.utime_sample = 0x0123456789AB0000LL;
+  m.machine_kind = mgc::machine_state_t::MACHINE_KIND_EXCAVATOR;
+  m.num_joints = 7;
+  m.joint_position[0] = 0.125;
+  m.joint_position[1] = -1.5;
+  m.joint_position[2] = 2.75;
+  m.joint_position[3] = -3.0625;
+  m.joint_position[4] = 12.5;
+  m.joint_position[5] = 1.0 / 3.0;
+  m.joint_position[6] = -7.0e-3;
+  m.joint_position[7] = 42.0;
+  m.joint_velocity[0] = 0.01;
+  m.joint_velocity[1] = -0.02;
+  m.joint_velocity[2] = 0.03;
+  m.joint_velocity[3] = -0.04;
+  m.joint_velocity[4] = 0.05;
+  m.joint_velocity[5] = -0.06;
+  m.joint_velocity[6] = 0.07;
+  m.joint_velocity[7] = -0.08;
+  m.joint_acceleration[0] = -1.25e-4;
+  m.joint_acceleration[1] = 2.5e-3;
+  m.joint_acceleration[2] = -3.75e-2;
+  m.joint_acceleration[3] = 4.5e-1;
+  m.joint_acceleration[4] = -5.25;
+  m.joint_acceleration[5] = 6.0e1;
+  m.joint_acceleration[6] = -7.125e2;
+  m.joint_acceleration[7] = 8.0e3;
+  m.joint_fault_flags[0] = mgc::machine_state_t::JOINT_ENCODER_STALE;
+  m.joint_fault_flags[1] = mgc::machine_state_t::JOINT_ENCODER_INVALID;
+  m.joint_fault_flags[2] = mgc::machine_state_t::JOINT_AT_LIMIT;
+  m.joint_fault_flags[3] = mgc::machine_state_t::JOINT_ACTUATOR_FAULT;
+  m.joint_fault_flags[4] = mgc::machine_state_t::JOINT_MOTION_CUT_OFF;
+  m.joint_fault_flags[5] = static_cast<std::int8_t>(mgc::machine_state_t::JOINT_ENCODER_STALE |
+                                                    mgc::machine_state_t::JOINT_AT_LIMIT);
+  m.joint_fault_flags[6] = 0x7f;
+  m.joint_fault_flags[7] = -128;
+  m.tool_position[0] = 12.345;
+  m.tool_position[1] = -67.89;
+  m.tool_position[2] = 31.5;
+  m.supervisor_state = mgc::machine_state_t::SUPERVISOR_REPLANNING;
+  m.load_moment_pct = 87.25;
+  return m;
+}
+
+mgc::operator_guidance_t make_operator_guidance() {
+  mgc::operator_guidance_t g{};
+  g.utime = 0x7EDCBA9876543210LL;
+  g.instruction = mgc::operator_guidance_t::INSTRUCTION_MOVE_JOINT;
+  g.segment_index = 3;
+  g.num_segments = 11;
+  g.moving_joint = 2;
+  g.target_position = -0.785;
+  g.joint_distance_remaining = -0.3125;
+  g.path_distance_remaining = 1.875;
+  g.time_remaining = 96.5;
+  g.speed_scale = 0.625;
+  return g;
+}
+
+mgc::alert_t make_alert() {
+  mgc::alert_t a{};
+  a.utime = 0x00FF00FF00FF00FFLL;
+  a.alert_id = 0x12345678;
+  a.severity = mgc::alert_t::SEVERITY_SLOW_DOWN;
+  a.source = mgc::alert_t::SOURCE_COLLISION;
+  a.active = 1;
+  a.clear_condition = mgc::alert_t::CLEAR_ON_OPERATOR_ACK;
+  a.value_unit = mgc::alert_t::UNIT_METRE;
+  a.value = 2.4375;
+  a.limit = 3.5;
+  a.index = 17;
+  a.min_clearance = 2.125;
+  return a;
+}
+
+mgc::plan_t make_plan() {
+  mgc::plan_t p{};
+  p.utime = 0x0A0B0C0D0E0F1011LL;
+  p.planner_name = "lg-rrt";
+  p.seed = -0x1122334455667788LL;
+  p.status = mgc::plan_t::STATUS_APPROXIMATE;
+  p.num_joints = 3;
+  p.num_waypoints = 4;
+  p.positions = {
+      {0.0, 1.5, -2.25},
+      {0.5, 1.5, -2.25},
+      {0.5, 2.0, -2.25},
+      {0.5, 2.0, 4.125},
+  };
+  p.moving_joint = {0, 1, 2, mgc::plan_t::NO_JOINT};
+  p.planning_time = 0.0625;
+  p.iterations = 123456789012LL;
+  p.path_length = 1.75;
+  p.execution_time = 48.5;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("machine_state_t round-trips every field", "[unit]") {
+  const mgc::machine_state_t sent = make_machine_state();
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::machine_state_t>(buf);
+
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.utime_sample == sent.utime_sample);
+  REQUIRE(got.machine_kind == sent.machine_kind);
+  REQUIRE(got.num_joints == sent.num_joints);
+  REQUIRE(as_array(got.joint_position) == as_array(sent.joint_position));
+  REQUIRE(as_array(got.joint_velocity) == as_array(sent.joint_velocity));
+  REQUIRE(as_array(got.joint_acceleration) == as_array(sent.joint_acceleration));
+  REQUIRE(as_array(got.joint_fault_flags) == as_array(sent.joint_fault_flags));
+  REQUIRE(as_array(got.tool_position) == as_array(sent.tool_position));
+  REQUIRE(got.supervisor_state == sent.supervisor_state);
+  REQUIRE(got.load_moment_pct == sent.load_moment_pct);
+
+  require_truncations_rejected<mgc::machine_state_t>(buf);
+  require_short_buffer_rejected(sent);
+}
+
+TEST_CASE("machine_state_t has a fixed encoded size", "[unit]") {
+  // Crosses the loop: the size must not depend on the content, so a static
+  // buffer sized once is always enough.
+  mgc::machine_state_t empty{};
+  REQUIRE(empty.getEncodedSize() == make_machine_state().getEncodedSize());
+}
+
+TEST_CASE("operator_guidance_t round-trips every field", "[unit]") {
+  const mgc::operator_guidance_t sent = make_operator_guidance();
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::operator_guidance_t>(buf);
+
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.instruction == sent.instruction);
+  REQUIRE(got.segment_index == sent.segment_index);
+  REQUIRE(got.num_segments == sent.num_segments);
+  REQUIRE(got.moving_joint == sent.moving_joint);
+  REQUIRE(got.target_position == sent.target_position);
+  REQUIRE(got.joint_distance_remaining == sent.joint_distance_remaining);
+  REQUIRE(got.path_distance_remaining == sent.path_distance_remaining);
+  REQUIRE(got.time_remaining == sent.time_remaining);
+  REQUIRE(got.speed_scale == sent.speed_scale);
+
+  require_truncations_rejected<mgc::operator_guidance_t>(buf);
+  require_short_buffer_rejected(sent);
+}
+
+TEST_CASE("alert_t round-trips every field", "[unit]") {
+  const mgc::alert_t sent = make_alert();
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::alert_t>(buf);
+
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.alert_id == sent.alert_id);
+  REQUIRE(got.severity == sent.severity);
+  REQUIRE(got.source == sent.source);
+  REQUIRE(got.active == sent.active);
+  REQUIRE(got.clear_condition == sent.clear_condition);
+  REQUIRE(got.value_unit == sent.value_unit);
+  REQUIRE(got.value == sent.value);
+  REQUIRE(got.limit == sent.limit);
+  REQUIRE(got.index == sent.index);
+  REQUIRE(got.min_clearance == sent.min_clearance);
+
+  require_truncations_rejected<mgc::alert_t>(buf);
+  require_short_buffer_rejected(sent);
+}
+
+TEST_CASE("alert_t severities are ordered by precedence", "[unit]") {
+  REQUIRE(mgc::alert_t::SEVERITY_UNKNOWN < mgc::alert_t::SEVERITY_INFO);
+  REQUIRE(mgc::alert_t::SEVERITY_INFO < mgc::alert_t::SEVERITY_WARN);
+  REQUIRE(mgc::alert_t::SEVERITY_WARN < mgc::alert_t::SEVERITY_SLOW_DOWN);
+  REQUIRE(mgc::alert_t::SEVERITY_SLOW_DOWN < mgc::alert_t::SEVERITY_STOP);
+  REQUIRE(mgc::alert_t::SEVERITY_STOP < mgc::alert_t::SEVERITY_FAULT);
+}
+
+TEST_CASE("plan_t round-trips every field", "[unit]") {
+  const mgc::plan_t sent = make_plan();
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::plan_t>(buf);
+
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.planner_name == sent.planner_name);
+  REQUIRE(got.seed == sent.seed);
+  REQUIRE(got.status == sent.status);
+  REQUIRE(got.num_joints == sent.num_joints);
+  REQUIRE(got.num_waypoints == sent.num_waypoints);
+  REQUIRE(got.positions.size() == 4);
+  REQUIRE(got.positions == sent.positions);
+  REQUIRE(got.moving_joint.size() == 4);
+  REQUIRE(got.moving_joint == sent.moving_joint);
+  REQUIRE(got.planning_time == sent.planning_time);
+  REQUIRE(got.iterations == sent.iterations);
+  REQUIRE(got.path_length == sent.path_length);
+  REQUIRE(got.execution_time == sent.execution_time);
+
+  require_truncations_rejected<mgc::plan_t>(buf);
+  require_short_buffer_rejected(sent);
+}
+
+TEST_CASE("plan_t without waypoints round-trips (failed plan)", "[unit]") {
+  mgc::plan_t sent = make_plan();
+  sent.status = mgc::plan_t::STATUS_TIMEOUT;
+  sent.num_waypoints = 0;
+  sent.positions.clear();
+  sent.moving_joint.clear();
+
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::plan_t>(buf);
+
+  REQUIRE(got.status == mgc::plan_t::STATUS_TIMEOUT);
+  REQUIRE(got.num_joints == sent.num_joints);
+  REQUIRE(got.num_waypoints == 0);
+  REQUIRE(got.positions.empty());
+  REQUIRE(got.moving_joint.empty());
+  REQUIRE(got.planner_name == sent.planner_name);
+  REQUIRE(got.execution_time == sent.execution_time);
+}
+
+TEST_CASE("fingerprints differ between types and reject foreign messages", "[unit]") {
+  const std::int64_t machine_state = mgc::machine_state_t::getHash();
+  const std::int64_t guidance = mgc::operator_guidance_t::getHash();
+  const std::int64_t alert = mgc::alert_t::getHash();
+  const std::int64_t plan = mgc::plan_t::getHash();
+
+  REQUIRE(machine_state != guidance);
+  REQUIRE(machine_state != alert);
+  REQUIRE(machine_state != plan);
+  REQUIRE(guidance != alert);
+  REQUIRE(guidance != plan);
+  REQUIRE(alert != plan);
+
+  // A valid message of one type must not decode as another.
+  const Bytes state_buf = encode_checked(make_machine_state());
+  const int state_size = static_cast<int>(state_buf.size());
+  mgc::alert_t as_alert{};
+  REQUIRE(as_alert.decode(state_buf.data(), 0, state_size) < 0);
+  mgc::operator_guidance_t as_guidance{};
+  REQUIRE(as_guidance.decode(state_buf.data(), 0, state_size) < 0);
+  mgc::plan_t as_plan{};
+  REQUIRE(as_plan.decode(state_buf.data(), 0, state_size) < 0);
+
+  const Bytes alert_buf = encode_checked(make_alert());
+  mgc::machine_state_t as_state{};
+  REQUIRE(as_state.decode(alert_buf.data(), 0, static_cast<int>(alert_buf.size())) < 0);
+}
+
+namespace {
+
+// Copies what arrives; assertions happen on the test's side, after handle().
+struct Receiver {
+  void on_machine_state(const lcm::ReceiveBuffer* /*rbuf*/, const std::string& channel,
+                        const mgc::machine_state_t* msg) {
+    ++machine_state_count;
+    machine_state_channel = channel;
+    machine_state = *msg;
+  }
+  void on_plan(const lcm::ReceiveBuffer* /*rbuf*/, const std::string& channel,
+               const mgc::plan_t* msg) {
+    ++plan_count;
+    plan_channel = channel;
+    plan = *msg;
+  }
+
+  int machine_state_count = 0;
+  std::string machine_state_channel;
+  mgc::machine_state_t machine_state{};
+  int plan_count = 0;
+  std::string plan_channel;
+  mgc::plan_t plan{};
+};
+
+}  // namespace
+
+TEST_CASE("messages cross the memq:// transport to a subscriber", "[lcm]") {
+  lcm::LCM lcm("memq://");
+  REQUIRE(lcm.good());
+
+  Receiver receiver;
+  REQUIRE(lcm.subscribe("MGC_MACHINE_STATE", &Receiver::on_machine_state, &receiver) != nullptr);
+  REQUIRE(lcm.subscribe("MGC_PLAN", &Receiver::on_plan, &receiver) != nullptr);
+
+  // The loop's way: encode into a caller-owned buffer, publish the raw bytes.
+  const mgc::machine_state_t sent_state = make_machine_state();
+  std::array<std::uint8_t, 1024> buf{};
+  const int len = sent_state.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  REQUIRE(len == sent_state.getEncodedSize());
+  REQUIRE(lcm.publish("MGC_MACHINE_STATE", buf.data(), static_cast<unsigned int>(len)) == 0);
+
+  // Off-loop tools may use the allocating convenience overload.
+  const mgc::plan_t sent_plan = make_plan();
+  REQUIRE(lcm.publish("MGC_PLAN", &sent_plan) == 0);
+
+  // memq delivers in publish order; one message per handle call.
+  REQUIRE(lcm.handle() == 0);
+  REQUIRE(receiver.machine_state_count == 1);
+  REQUIRE(receiver.plan_count == 0);
+  REQUIRE(lcm.handleTimeout(1000) > 0);
+  REQUIRE(receiver.plan_count == 1);
+
+  // Nothing left: a bounded wait times out instead of blocking.
+  REQUIRE(lcm.handleTimeout(10) == 0);
+
+  REQUIRE(receiver.machine_state_count == 1);
+  REQUIRE(receiver.machine_state_channel == "MGC_MACHINE_STATE");
+  REQUIRE(receiver.machine_state.utime == sent_state.utime);
+  REQUIRE(receiver.machine_state.utime_sample == sent_state.utime_sample);
+  REQUIRE(receiver.machine_state.num_joints == sent_state.num_joints);
+  REQUIRE(as_array(receiver.machine_state.joint_position) == as_array(sent_state.joint_position));
+  REQUIRE(receiver.machine_state.supervisor_state == sent_state.supervisor_state);
+  REQUIRE(receiver.machine_state.load_moment_pct == sent_state.load_moment_pct);
+
+  REQUIRE(receiver.plan_channel == "MGC_PLAN");
+  REQUIRE(receiver.plan.planner_name == sent_plan.planner_name);
+  REQUIRE(receiver.plan.positions == sent_plan.positions);
+  REQUIRE(receiver.plan.moving_joint == sent_plan.moving_joint);
+}
