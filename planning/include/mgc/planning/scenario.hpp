@@ -1,0 +1,111 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/excavator.hpp"
+#include "mgc/planning/load_chart.hpp"
+#include "mgc/planning/machine_model.hpp"
+#include "mgc/planning/mobile_crane.hpp"
+#include "mgc/planning/obstacle.hpp"
+#include "mgc/planning/tower_crane.hpp"
+
+namespace mgc::planning {
+
+//! Where a value came from, so that checks made after parsing can still name the file and line.
+struct SourceRef {
+  std::string file;
+  int line = 0;          //!< 1-based; 0 when unknown
+  std::string field;     //!< dotted path, e.g. "task.load_lb"
+};
+
+//! A machine file: kind, joints with limits, fixed geometry, and (cranes) the load chart.
+struct MachineDefinition {
+  std::string file;
+  std::string name;
+  std::string source;  //!< where the numbers come from (free text)
+  MachineKind kind = MachineKind::MobileCrane;
+  std::vector<JointSpec> joints;
+  MobileCraneGeometry mobile_crane;  //!< kind == MobileCrane
+  TowerCraneGeometry tower_crane;    //!< kind == TowerCrane
+  ExcavatorGeometry excavator;       //!< kind == Excavator
+  std::optional<LoadChart> load_chart;
+  std::optional<LuffRangeTable> luff_table;
+};
+
+//! The lift: what hangs on the hook and under which rule (cranes only).
+struct TaskSpec {
+  double load_lb = 0.0;                  //!< [lb]
+  double capacity_reduction_pct = 0.0;   //!< [%]
+  std::string outriggers;                //!< must match the chart's rigging
+  double counterweight_lb = 0.0;         //!< must match the chart's rigging [lb]
+  CraneConstraintMode constraint = CraneConstraintMode::None;
+  Eigen::Vector3d load_size_m{1.0, 1.0, 1.0};  //!< [m]
+  double sling_length_m = 0.0;                 //!< [m]
+  SourceRef load_ref;
+};
+
+//! One key pose of a scripted dynamic obstacle; poses between keys are linear in position and
+//! in yaw (the yaw is not wrapped, so a key sequence can swing through any angle).
+struct Keyframe {
+  double t_s = 0.0;                                   //!< [s] from the start of the scenario
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  //!< obstacle frame origin [m]
+  double yaw_rad = 0.0;                               //!< obstacle frame about world z [rad]
+};
+
+struct DynamicObstacleSpec {
+  DynamicObstacle obstacle;
+  std::vector<Keyframe> motion;  //!< strictly increasing t_s, at least one key
+
+  //! Pose at time t_s: held at the first key before it and at the last key after it.
+  [[nodiscard]] Eigen::Isometry3d pose_at(double t_s) const noexcept;
+};
+
+//! Planner parameters as the thesis names them (Table 4.1), in our units.
+struct PlannerParams {
+  std::uint64_t seed = 0;
+  int max_iterations = 1000;          //!< the thesis's Max_Nodes, an iteration cap
+  double goal_bias = 0.1;             //!< Biasing_Probability
+  int space_resolution = 50;          //!< Space_Resolution (hypercube subdivisions per joint)
+  double error_tolerance = 1.0;       //!< goal tolerance in steps of each joint
+  double dilation_m = 0.15;           //!< CSpace_Dilation [m]
+  int replan_max_iterations = 2000;   //!< Replan_Max_Nodes
+  double replan_goal_bias = 0.15;     //!< Replan_Biasing_Probability
+};
+
+struct Scenario {
+  std::string file;
+  std::string name;
+  std::string description;
+  MachineDefinition machine;
+  Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
+  std::optional<TaskSpec> task;     //!< cranes
+  std::vector<StaticObstacle> obstacles;
+  std::vector<DynamicObstacleSpec> dynamic_obstacles;
+  JointVector start;
+  JointVector goal;
+  SourceRef start_ref;
+  SourceRef goal_ref;
+  PlannerParams planner;
+};
+
+//! The machine model a scenario describes. Throws std::invalid_argument with the reason when the
+//! definition and task do not fit together (callers at the file edge add the file and line).
+[[nodiscard]] std::unique_ptr<MachineModel> build_model(const Scenario& scenario);
+
+//! The collision world of a scenario with its dynamic obstacles posed at t_s.
+[[nodiscard]] std::unique_ptr<CollisionWorld> build_world(const Scenario& scenario, const MachineModel& model,
+                                                          double t_s = 0.0);
+
+//! Per-joint edge-check step: range / space_resolution (pi / space_resolution for continuous
+//! joints, since the thesis's Eq. 3.17 degenerates to 0 for a full circle). [rad | m]
+[[nodiscard]] JointVector step_sizes(const MachineModel& model, int space_resolution);
+
+}  // namespace mgc::planning

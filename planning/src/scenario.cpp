@@ -1,0 +1,80 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/planning/scenario.hpp"
+
+#include <algorithm>
+#include <numbers>
+#include <stdexcept>
+
+namespace mgc::planning {
+
+Eigen::Isometry3d DynamicObstacleSpec::pose_at(double t_s) const noexcept {
+  const auto pose = [](const Eigen::Vector3d& p, double yaw) {
+    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+    t.translate(p);
+    t.rotate(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+    return t;
+  };
+  if (motion.empty()) return Eigen::Isometry3d::Identity();
+  if (t_s <= motion.front().t_s) return pose(motion.front().position_m, motion.front().yaw_rad);
+  if (t_s >= motion.back().t_s) return pose(motion.back().position_m, motion.back().yaw_rad);
+  const auto next = std::upper_bound(motion.begin(), motion.end(), t_s,
+                                     [](double t, const Keyframe& k) { return t < k.t_s; });
+  const Keyframe& b = *next;
+  const Keyframe& a = *(next - 1);
+  const double s = (t_s - a.t_s) / (b.t_s - a.t_s);
+  return pose(a.position_m + s * (b.position_m - a.position_m), a.yaw_rad + s * (b.yaw_rad - a.yaw_rad));
+}
+
+std::unique_ptr<MachineModel> build_model(const Scenario& scenario) {
+  const MachineDefinition& m = scenario.machine;
+  switch (m.kind) {
+    case MachineKind::MobileCrane: {
+      if (!scenario.task) throw std::invalid_argument("a mobile crane scenario needs a task");
+      const TaskSpec& t = *scenario.task;
+      LiftTask lift;
+      lift.load_lb = t.load_lb;
+      lift.capacity_reduction_pct = t.capacity_reduction_pct;
+      lift.constraint = t.constraint;
+      lift.load_size_m = t.load_size_m;
+      lift.sling_length_m = t.sling_length_m;
+      if (t.constraint == CraneConstraintMode::LoadChart && !m.load_chart) {
+        throw std::invalid_argument("constraint load_chart needs a load_chart in the machine file");
+      }
+      return std::make_unique<MobileCrane>(m.name, m.joints, m.mobile_crane, m.load_chart.value_or(LoadChart{}),
+                                           m.luff_table, lift, scenario.world_from_base);
+    }
+    case MachineKind::TowerCrane: {
+      TowerLiftTask lift;
+      if (scenario.task) {
+        lift.load_size_m = scenario.task->load_size_m;
+        lift.sling_length_m = scenario.task->sling_length_m;
+      }
+      return std::make_unique<TowerCrane>(m.name, m.joints, m.tower_crane, lift, scenario.world_from_base);
+    }
+    case MachineKind::Excavator:
+      return std::make_unique<Excavator>(m.name, m.joints, m.excavator, scenario.world_from_base);
+  }
+  throw std::invalid_argument("unknown machine kind");
+}
+
+std::unique_ptr<CollisionWorld> build_world(const Scenario& scenario, const MachineModel& model, double t_s) {
+  auto world = std::make_unique<CollisionWorld>(model, scenario.planner.dilation_m);
+  for (const StaticObstacle& o : scenario.obstacles) world->add_static(o);
+  for (const DynamicObstacleSpec& d : scenario.dynamic_obstacles) world->add_dynamic(d.obstacle);
+  world->finalize();
+  for (std::size_t i = 0; i < scenario.dynamic_obstacles.size(); ++i) {
+    world->set_dynamic_pose(static_cast<int>(i), scenario.dynamic_obstacles[i].pose_at(t_s));
+  }
+  return world;
+}
+
+JointVector step_sizes(const MachineModel& model, int space_resolution) {
+  JointVector steps(model.dof());
+  for (int i = 0; i < model.dof(); ++i) {
+    const JointSpec& j = model.joints()[static_cast<std::size_t>(i)];
+    steps[i] = (j.continuous ? std::numbers::pi : j.range()) / space_resolution;
+  }
+  return steps;
+}
+
+}  // namespace mgc::planning

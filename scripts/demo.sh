@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
+# The main job, as far as mgc goes today: build, then load every shipped scenario, validate it,
+# and report start/goal feasibility, clearances and whether the straight joint-space line is
+# blocked (so the lift needs planning). Installs missing Debian packages.
+set -euo pipefail
+source "$(dirname "$0")/lib/common.sh"
+mgc_install_packages
+mgc_build -DMGC_BUILD_TESTS=OFF
+status=0
+for scenario in "$MGC_ROOT"/scenarios/*.yaml; do
+  echo "=== mgc-plan --scenario ${scenario#"$MGC_ROOT"/} --check"
+  "$MGC_BUILD_DIR/bin/mgc-plan" --scenario "$scenario" --check || status=$?
+  echo
+done
+exit "$status"

@@ -1,0 +1,35 @@
+# SPDX-License-Identifier: Apache-2.0
+# Shared by the README's commands: installs the Debian packages mgc needs (only those missing,
+# with one apt-get update first) and configures and builds into build/.
+
+MGC_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+MGC_BUILD_DIR="${MGC_BUILD_DIR:-$MGC_ROOT/build}"
+
+MGC_PACKAGES=(
+  g++ cmake make pkg-config
+  libeigen3-dev libfcl-dev libccd-dev
+  liblcm-dev liblcm-bin libglib2.0-dev
+  catch2 libyaml-cpp-dev libcli11-dev libboost-dev
+)
+
+mgc_install_packages() {
+  local missing=() p
+  for p in "${MGC_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  echo "mgc: installing missing Debian packages: ${missing[*]}"
+  local sudo=()
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "mgc: need root (or sudo) to install: ${missing[*]}" >&2; return 1; }
+    sudo=(sudo)
+  fi
+  "${sudo[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+# mgc_build [extra cmake args...]
+mgc_build() {
+  cmake -S "$MGC_ROOT" -B "$MGC_BUILD_DIR" -DCMAKE_BUILD_TYPE="${MGC_BUILD_TYPE:-RelWithDebInfo}" "$@"
+  cmake --build "$MGC_BUILD_DIR" -j "$(nproc)"
+}

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
+# Builds mgc into build/ and runs every test through ctest. Installs missing Debian packages.
+set -euo pipefail
+source "$(dirname "$0")/lib/common.sh"
+mgc_install_packages
+mgc_build -DMGC_BUILD_TESTS=ON
+cd "$MGC_BUILD_DIR"
+ctest --output-on-failure -j "$(nproc)" --timeout 600

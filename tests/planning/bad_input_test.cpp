@@ -1,0 +1,203 @@
+// SPDX-License-Identifier: Apache-2.0
+// Every kind of bad input gives one InputError naming the file, the line, the field and what was
+// expected -- nothing crashes and nothing is silently defaulted.
+#include <catch2/catch.hpp>
+
+#include <regex>
+
+#include "mgc/planning/io/scenario_loader.hpp"
+#include "test_support.hpp"
+
+using namespace mgc::planning;
+using mgc::test::TempFile;
+
+namespace {
+
+std::string machine_path() { return mgc::test::source_path("scenarios/machines/grove-tms870.yaml").string(); }
+
+// A small valid scenario; each test replaces one piece of it.
+std::string scenario_text() {
+  return "name: bad-input-base\n"
+         "machine: " + machine_path() + "\n"
+         "base:\n"
+         "  position_m: [0, 0, 0]\n"
+         "  yaw_deg: 0\n"
+         "task:\n"
+         "  load_lb: 20000\n"
+         "  outriggers: fully_extended\n"
+         "  counterweight_lb: 18000\n"
+         "  constraint: load_chart\n"
+         "  load_size_m: [2, 2, 1]\n"
+         "  sling_length_m: 1\n"
+         "obstacles:\n"
+         "  - name: block\n"
+         "    type: box\n"
+         "    size_m: [2, 2, 2]\n"
+         "    position_m: [0, 15, 1]\n"
+         "start:\n"
+         "  swing_deg: 0\n"
+         "  boom_elevation_deg: 45\n"
+         "  boom_length_m: 20\n"
+         "  cable_length_m: 5\n"
+         "goal:\n"
+         "  swing_deg: 180\n"
+         "  boom_elevation_deg: 45\n"
+         "  boom_length_m: 20\n"
+         "  cable_length_m: 5\n"
+         "planner:\n"
+         "  seed: 1\n";
+}
+
+std::string replace(std::string text, const std::string& from, const std::string& to) {
+  const auto pos = text.find(from);
+  REQUIRE(pos != std::string::npos);
+  return text.replace(pos, from.size(), to);
+}
+
+struct Expect {
+  int line;
+  std::string field;
+  std::string message;  // a fragment of what was expected
+};
+
+void expect_error(const std::string& text, const Expect& e) {
+  TempFile file("scenario.yaml", text);
+  try {
+    auto loaded = io::load_and_build(file.path());
+    const auto errors = io::check_endpoints(loaded);
+    REQUIRE(errors.size() >= 1);
+    throw errors.front();
+  } catch (const io::InputError& error) {
+    const std::string what = error.what();
+    CAPTURE(what);
+    CHECK(error.file() == file.path().string());
+    CHECK(error.line() == e.line);
+    CHECK(error.field() == e.field);
+    CHECK(what.find(e.message) != std::string::npos);
+    // One line: "<file>:<line>: <field>: ..."
+    CHECK(what.find('\n') == std::string::npos);
+    const std::string prefix = file.path().string() + ":" + std::to_string(e.line) + ": " + (e.field.empty() ? "" : e.field + ": ");
+    CHECK(what.rfind(prefix, 0) == 0);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("the base scenario of these tests is valid", "[unit]") {
+  TempFile file("scenario.yaml", scenario_text());
+  auto loaded = io::load_and_build(file.path());
+  CHECK(io::check_endpoints(loaded).empty());
+}
+
+TEST_CASE("bad input: missing field", "[unit]") {
+  expect_error(replace(scenario_text(), "  counterweight_lb: 18000\n", ""), {6, "task.counterweight_lb", "missing field"});
+}
+
+TEST_CASE("bad input: unknown field", "[unit]") {
+  expect_error(replace(scenario_text(), "  sling_length_m: 1\n", "  sling_length_m: 1\n  slingg: 2\n"),
+               {13, "task.slingg", "unknown field"});
+}
+
+TEST_CASE("bad input: duplicate field", "[unit]") {
+  expect_error(replace(scenario_text(), "  sling_length_m: 1\n", "  sling_length_m: 1\n  sling_length_m: 2\n"),
+               {13, "task.sling_length_m", "duplicate field"});
+}
+
+TEST_CASE("bad input: wrong type", "[unit]") {
+  expect_error(replace(scenario_text(), "load_lb: 20000", "load_lb: heavy"), {7, "task.load_lb", "expected a number, got 'heavy'"});
+  expect_error(replace(scenario_text(), "size_m: [2, 2, 2]", "size_m: 2"), {16, "obstacles[0].size_m", "expected a list of 3 positive numbers"});
+  expect_error(replace(scenario_text(), "type: box", "type: sphere"), {15, "obstacles[0].type", "expected one of box, cylinder, capsule, mesh, steel_frame"});
+}
+
+TEST_CASE("bad input: NaN and infinity", "[unit]") {
+  expect_error(replace(scenario_text(), "boom_length_m: 20\n  cable", "boom_length_m: .nan\n  cable"),
+               {21, "start.boom_length_m", "expected a finite number, got '.nan'"});
+  expect_error(replace(scenario_text(), "position_m: [0, 15, 1]", "position_m: [0, .inf, 1]"),
+               {17, "obstacles[0].position_m[1]", "expected a finite number"});
+}
+
+TEST_CASE("bad input: non-positive sizes", "[unit]") {
+  expect_error(replace(scenario_text(), "size_m: [2, 2, 2]", "size_m: [2, -2, 2]"), {16, "obstacles[0].size_m[1]", "expected a positive number, got '-2'"});
+}
+
+TEST_CASE("bad input: load above every chart entry", "[unit]") {
+  expect_error(replace(scenario_text(), "load_lb: 20000", "load_lb: 150000"), {7, "task.load_lb", "a load the chart rates (at most 140000 lb"});
+  // The capacity reduction counts: 130,000 lb + 10 % is above 140,000.
+  expect_error(replace(scenario_text(), "load_lb: 20000", "load_lb: 130000\n  capacity_reduction_pct: 10"),
+               {7, "task.load_lb", "this is 143000 lb"});
+}
+
+TEST_CASE("bad input: rigging the chart does not cover", "[unit]") {
+  expect_error(replace(scenario_text(), "outriggers: fully_extended", "outriggers: retracted"),
+               {8, "task.outriggers", "expected 'fully_extended', the rigging of the load chart"});
+}
+
+TEST_CASE("bad input: start or goal outside the joint ranges", "[unit]") {
+  expect_error(replace(scenario_text(), "boom_length_m: 20\n  cable", "boom_length_m: 40\n  cable"),
+               {21, "start.boom_length_m", "expected a value within the joint range [10.9728, 33.528] m"});
+  expect_error(replace(scenario_text(), "  swing_deg: 180\n  boom_elevation_deg: 45", "  swing_deg: 180\n  boom_elevation_deg: 85"),
+               {25, "goal.boom_elevation_deg", "[0, 80] deg"});
+}
+
+TEST_CASE("bad input: start in collision names the obstacle", "[unit]") {
+  // Swing 90 deg puts the load (radius 14.1 m, 8.1 m up) ... lower it onto the block at (0, 15).
+  expect_error(replace(scenario_text(), "  swing_deg: 0\n  boom_elevation_deg: 45\n  boom_length_m: 20\n  cable_length_m: 5",
+                       "  swing_deg: 90\n  boom_elevation_deg: 45\n  boom_length_m: 20\n  cable_length_m: 13"),
+               {18, "start", "infeasible: collision: load hits obstacle 'block'"});
+}
+
+TEST_CASE("bad input: goal against the load chart names the chart row", "[unit]") {
+  // 20 m boom at 35 deg: below the 70-ft row's 39.5 deg minimum for 20,000 lb.
+  expect_error(replace(scenario_text(), "  swing_deg: 180\n  boom_elevation_deg: 45", "  swing_deg: 180\n  boom_elevation_deg: 35"),
+               {23, "goal", "load-chart row 70 ft boom, radius 50 ft): value 35 deg, limit 39.5 deg"});
+}
+
+TEST_CASE("bad input: inverted range in a machine file", "[unit]") {
+  std::ifstream in(machine_path());
+  std::string machine((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  machine = replace(machine, "range_deg: [0, 80]", "range_deg: [80, 0]");
+  TempFile bad_machine("machine.yaml", machine);
+  try {
+    (void)io::load_machine(bad_machine.path());
+    FAIL("no error");
+  } catch (const io::InputError& e) {
+    CHECK(e.field() == "joints[1].range_deg");
+    CHECK(std::string(e.what()).find("expected a pair [min, max] with min < max") != std::string::npos);
+    CHECK(e.line() > 0);
+  }
+}
+
+TEST_CASE("bad input: a load chart row of the wrong length", "[unit]") {
+  std::ifstream in(machine_path());
+  std::string machine((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  machine = replace(machine, "[140000, 110500, 69800, 78750, 59800, 27600, ~,", "[140000, 110500, 69800, 78750, 59800, 27600,");
+  TempFile bad_machine("machine.yaml", machine);
+  try {
+    (void)io::load_machine(bad_machine.path());
+    FAIL("no error");
+  } catch (const io::InputError& e) {
+    CHECK(e.field() == "load_chart.capacity_lb[0]");
+    CHECK(std::string(e.what()).find("expected a row of 21 cells") != std::string::npos);
+  }
+}
+
+TEST_CASE("bad input: machine file missing, YAML syntax error, mesh index", "[unit]") {
+  expect_error(replace(scenario_text(), "machine: " + machine_path(), "machine: nowhere.yaml"),
+               {2, "machine", "does not exist"});
+  expect_error(replace(scenario_text(), "  yaw_deg: 0\n", "  yaw_deg: [0\n"), {6, "", "YAML syntax error"});
+  expect_error(replace(scenario_text(), "    type: box\n    size_m: [2, 2, 2]\n",
+                       "    type: mesh\n    vertices_m: [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\n    triangles: [[0, 1, 3]]\n"),
+               {17, "obstacles[0].triangles[0][2]", "expected an integer in [0, 2]"});
+}
+
+TEST_CASE("bad input: keyframes must move forward in time", "[unit]") {
+  const std::string dynamic =
+      "dynamic_obstacles:\n"
+      "  - name: truck\n"
+      "    parts: [{type: box, size_m: [8, 2.5, 3], position_m: [0, 0, 1.5]}]\n"
+      "    motion:\n"
+      "      - {t_s: 5, position_m: [0, -30, 0], yaw_deg: 0}\n"
+      "      - {t_s: 5, position_m: [0, -20, 0], yaw_deg: 0}\n"
+      "start:\n";
+  expect_error(replace(scenario_text(), "start:\n", dynamic), {23, "dynamic_obstacles[0].motion[1].t_s", "a time after the previous key's 5 s"});
+}

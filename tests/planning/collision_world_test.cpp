@@ -1,0 +1,183 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <catch2/catch.hpp>
+
+#include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/mobile_crane.hpp"
+#include "test_support.hpp"
+
+using namespace mgc::planning;
+using mgc::test::kDeg;
+
+namespace {
+
+std::unique_ptr<MobileCrane> make_crane() {
+  const MachineDefinition m = io::load_machine(mgc::test::source_path("scenarios/machines/grove-tms870.yaml"));
+  LiftTask task;
+  task.load_lb = 20000;
+  task.constraint = CraneConstraintMode::None;
+  task.load_size_m = {2.0, 2.0, 1.0};
+  task.sling_length_m = 1.0;
+  return std::make_unique<MobileCrane>(m.name, m.joints, m.mobile_crane, *m.load_chart, m.luff_table, task,
+                                       Eigen::Isometry3d::Identity());
+}
+
+JointVector q4(double swing_deg, double elevation_deg, double boom_m, double cable_m) {
+  JointVector q(4);
+  q << swing_deg * kDeg, elevation_deg * kDeg, boom_m, cable_m;
+  return q;
+}
+
+StaticObstacle box(const std::string& name, const Eigen::Vector3d& centre, const Eigen::Vector3d& size) {
+  StaticObstacle o;
+  o.name = name;
+  o.shape.kind = ShapeKind::Box;
+  o.shape.size_m = size;
+  o.shape.pose = Eigen::Isometry3d(Eigen::Translation3d(centre));
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("collision world names what a configuration hits", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.15);
+  // A wall 2 m thick, 10 m tall, across the +x axis at x = 14..16.
+  world.add_static(box("wall", {15, 0, 5}, {2, 20, 10}));
+  world.add_static(box("far-block", {-40, 40, 1}, {2, 2, 2}));
+  world.finalize();
+
+  // Elevation 60, boom 20: tip at radius 10, height 20.3; hook 10 m below at radius 10: free.
+  Contact contact;
+  CHECK(world.is_free(q4(0, 60, 20, 10), &contact));
+  CHECK(contact.with == Contact::With::Nothing);
+
+  // Boom level at 3 m: boom reaches x = 20 and passes through the wall.
+  REQUIRE_FALSE(world.is_free(q4(0, 0, 20, 1), &contact));
+  CHECK(contact.with == Contact::With::Static);
+  CHECK(world.static_name(contact.other) == "wall");
+  CHECK(world.describe(contact) == "boom hits obstacle 'wall'");
+
+  // Load hanging at radius 15 (elevation 41.41 deg on a 20 m boom), low: the load hits the wall.
+  const double elevation = std::acos(15.0 / 20.0) / kDeg;
+  REQUIRE_FALSE(world.is_free(q4(0, elevation, 20, 10), &contact));
+  CHECK(world.static_name(contact.other) == "wall");
+  // Hoisted above the wall top (10 m): tip height 3 + 13.23 = 16.23; cable 2 m puts the load
+  // bottom at 16.23 - 2 - 1 - 1 = 12.23 m: free.
+  CHECK(world.is_free(q4(0, elevation, 20, 2), &contact));
+  // Swung away from the wall: free again.
+  CHECK(world.is_free(q4(90, elevation, 20, 10), &contact));
+}
+
+TEST_CASE("collision world reports self contact of the load with the carrier", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.0);
+  world.finalize();
+  // Steep short boom over the carrier (carrier spans x -4.5..8.5, z 0..2), load lowered onto it.
+  // Tip: radius 11 cos 80 = 1.91 m, height 3 + 10.83 = 13.83 m; cable 10.5 m: load bottom 1.33 m.
+  Contact contact;
+  REQUIRE_FALSE(world.is_free(q4(0, 80, 11, 10.5), &contact));
+  CHECK(contact.with == Contact::With::Self);
+  CHECK(crane->bodies()[static_cast<std::size_t>(contact.body)].name == "load");
+  CHECK(crane->bodies()[static_cast<std::size_t>(contact.other)].name == "carrier");
+  CHECK(world.is_free(q4(0, 80, 11, 5.0), &contact));
+}
+
+TEST_CASE("collision world clearance agrees with the analytic gap", "[oracle]") {
+  auto crane = make_crane();
+  const double margin = 0.15;
+  CollisionWorld world(*crane, margin);
+  world.add_static(box("block", {30, 0, 1}, {2, 2, 2}));
+  world.finalize();
+  // Boom level at 3 m along +x, 20 m: its dilated end face is at x = 20 + 0.15; the load hangs
+  // below the tip. Load 2x2x1 under a 1 m sling at hook height 3 - 1 = 2: load box x 19..21,
+  // z 0..1 (dilated: x to 21.15). Block face at x = 29: the gap is 29 - 21.15 = 7.85 m.
+  const Clearance c = world.clearance(q4(0, 0, 20, 1));
+  CHECK(c.distance_m == Approx(7.85).margin(1e-6));
+  CHECK(c.with == Contact::With::Static);
+  CHECK(world.static_name(c.other) == "block");
+  CHECK(crane->bodies()[static_cast<std::size_t>(c.body)].name == "load");
+}
+
+TEST_CASE("edge check finds an obstacle between two free configurations", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.15);
+  world.add_static(box("pillar", {0, 15, 5}, {1, 1, 10}));
+  world.finalize();
+  const double elevation = std::acos(15.0 / 20.0) / kDeg;
+  const JointVector a = q4(60, elevation, 20, 8);
+  const JointVector b = q4(120, elevation, 20, 8);
+  REQUIRE(world.validate(a).valid());
+  REQUIRE(world.validate(b).valid());
+  JointVector steps(4);
+  steps << 1 * kDeg, 1 * kDeg, 0.1, 0.1;
+  JointVector at;
+  const Validity v = world.validate_edge(a, b, steps, &at);
+  REQUIRE(v.status == Validity::Status::Collision);
+  CHECK(world.static_name(v.contact.other) == "pillar");
+  // The first colliding step is still short of 90 deg, where the pillar stands.
+  CHECK(at[0] < 90 * kDeg);
+  CHECK(at[0] > 80 * kDeg);
+  // Hoisted above the pillar, the same swing is free.
+  CHECK(world.validate_edge(q4(60, elevation, 20, 1), q4(120, elevation, 20, 1), steps).valid());
+}
+
+TEST_CASE("edge check takes the short way round for a continuous swing", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.15);
+  // A pillar due east: swinging from +170 to -170 must pass west (through 180), not east.
+  world.add_static(box("east-pillar", {15, 0, 5}, {1, 1, 10}));
+  world.finalize();
+  const double elevation = std::acos(15.0 / 20.0) / kDeg;
+  JointVector steps(4);
+  steps << 1 * kDeg, 1 * kDeg, 0.1, 0.1;
+  CHECK(world.validate_edge(q4(170, elevation, 20, 8), q4(-170, elevation, 20, 8), steps).valid());
+  CHECK_FALSE(world.validate_edge(q4(10, elevation, 20, 8), q4(-10, elevation, 20, 8), steps).valid());
+}
+
+TEST_CASE("dynamic obstacles move without rebuilding the world", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.15);
+  world.finalize();
+  DynamicObstacle truck;
+  truck.name = "truck";
+  ShapePart body;
+  body.kind = ShapeKind::Box;
+  body.size_m = {8, 2.5, 3};
+  body.pose = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 1.5));
+  truck.parts.push_back(body);
+  CHECK_THROWS_AS(world.add_dynamic(truck), std::logic_error);
+
+  CollisionWorld world2(*crane, 0.15);
+  const int id = world2.add_dynamic(truck);
+  world2.finalize();
+  const double elevation = std::acos(15.0 / 20.0) / kDeg;
+  // Load at radius 15: tip 16.23 m up, 12 m cable, 1 m sling, 1 m load: bottom 2.23 m up, below
+  // the 3 m truck.
+  const JointVector q = q4(0, elevation, 20, 12);
+  world2.set_dynamic_pose(id, Eigen::Isometry3d(Eigen::Translation3d(-50, 0, 0)));
+  CHECK(world2.is_free(q));
+  world2.set_dynamic_pose(id, Eigen::Isometry3d(Eigen::Translation3d(15, 0, 0)));
+  Contact contact;
+  REQUIRE_FALSE(world2.is_free(q, &contact));
+  CHECK(contact.with == Contact::With::Dynamic);
+  CHECK(world2.dynamic_name(contact.other) == "truck");
+  CHECK(world2.describe(contact) == "load hits dynamic obstacle 'truck'");
+  const Clearance c = world2.clearance(q4(90, elevation, 20, 10));
+  CHECK(c.with == Contact::With::Dynamic);
+}
+
+TEST_CASE("validity checks joint ranges, then constraints, then collision", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.15);
+  world.finalize();
+  const Validity range = world.validate(q4(0, 85, 20, 5));
+  CHECK(range.status == Validity::Status::JointOutOfRange);
+  CHECK(range.joint == MobileCrane::kBoomElevation);
+  const Validity ground = world.validate(q4(0, 10, 20, 20));
+  CHECK(ground.status == Validity::Status::Constraint);
+  CHECK(ground.constraint.status == ConstraintStatus::LoadBelowGround);
+  CHECK(world.validate(q4(0, 45, 20, 5)).valid());
+  // A swing value far outside [-pi, pi) is still a valid continuous-joint position.
+  CHECK(world.validate(q4(720 + 45, 45, 20, 5)).valid());
+}
