@@ -75,3 +75,67 @@ TEST_CASE("thesis steel frame: lifting over the frame is possible with the boom 
   over[3] = 25.0;
   CHECK(loaded.world->validate(over).status == Validity::Status::Collision);
 }
+
+namespace {
+void check_same_joints(const std::vector<JointSpec>& file, const std::vector<JointSpec>& defaults) {
+  REQUIRE(file.size() == defaults.size());
+  for (std::size_t i = 0; i < file.size(); ++i) {
+    CAPTURE(file[i].name);
+    CHECK(file[i].name == defaults[i].name);
+    CHECK(file[i].type == defaults[i].type);
+    CHECK(file[i].continuous == defaults[i].continuous);
+    CHECK(file[i].position_min == Approx(defaults[i].position_min).margin(1e-12));
+    CHECK(file[i].position_max == Approx(defaults[i].position_max).margin(1e-12));
+    CHECK(file[i].max_velocity == Approx(defaults[i].max_velocity).epsilon(1e-12));
+    CHECK(file[i].max_acceleration == Approx(defaults[i].max_acceleration).epsilon(1e-12));
+    CHECK(file[i].max_jerk == Approx(defaults[i].max_jerk).epsilon(1e-12));
+  }
+}
+}  // namespace
+
+TEST_CASE("shipped machine files hold the documented defaults", "[unit]") {
+  const MachineDefinition tower = io::load_machine(mgc::test::source_path("scenarios/machines/pecco-sk180.yaml"));
+  check_same_joints(tower.joints, default_tower_crane_joints());
+  const TowerCraneGeometry tg;
+  CHECK(tower.tower_crane.jib_height_m == tg.jib_height_m);
+  CHECK(tower.tower_crane.jib_length_m == tg.jib_length_m);
+  CHECK(tower.tower_crane.counterweight_size_m == tg.counterweight_size_m);
+  CHECK(tower.tower_crane.min_hook_drop_m == tg.min_hook_drop_m);
+
+  const MachineDefinition cat = io::load_machine(mgc::test::source_path("scenarios/machines/cat-320.yaml"));
+  check_same_joints(cat.joints, default_excavator_joints());
+  const ExcavatorGeometry eg;
+  CHECK(cat.excavator.boom_length_m == eg.boom_length_m);
+  CHECK(cat.excavator.arm_length_m == eg.arm_length_m);
+  CHECK(cat.excavator.bucket_length_m == eg.bucket_length_m);
+  CHECK(cat.excavator.boom_foot_forward_m == eg.boom_foot_forward_m);
+  CHECK(cat.excavator.boom_foot_height_m == eg.boom_foot_height_m);
+  CHECK(cat.excavator.house_centre_m == eg.house_centre_m);
+  CHECK(cat.excavator.cab_centre_m == eg.cab_centre_m);
+}
+
+TEST_CASE("excavator scenario: the bucket is held at the same ground angle at start and goal", "[scenario]") {
+  auto loaded = load("excavator-pipelines.yaml");
+  CHECK(bucket_ground_angle_rad(loaded.scenario.start) == Approx(-180 * kDeg));
+  CHECK(bucket_ground_angle_rad(loaded.scenario.goal) == Approx(-180 * kDeg));
+  // The start bucket is below ground, between the pipelines.
+  Kinematics k;
+  loaded.model->forward_kinematics(loaded.scenario.start, k);
+  const Eigen::Vector3d tip = k.points[Excavator::kPointBucketTip];
+  CHECK(tip.z() < -1.5);
+  CHECK(std::abs(tip.y()) < 0.5);
+}
+
+TEST_CASE("tower variant: crane 2's jib crosses the west route after it slews", "[scenario]") {
+  auto loaded = load("thesis-steel-frame-tower.yaml");
+  CHECK(loaded.world->num_static() == 535);
+  // Hook low on the bearing where crane 2's jib (y = -10, x < 5 once it points east) meets our
+  // 15 m trolley radius: x = -sqrt(15^2 - 10^2) = -11.18, bearing -138.2 deg.
+  JointVector west = loaded.scenario.start;
+  west[TowerCrane::kSlew] = -138.2 * kDeg;
+  CHECK(loaded.world->is_free(west));
+  auto late = build_world(loaded.scenario, *loaded.model, 85.0);
+  Contact contact;
+  REQUIRE_FALSE(late->is_free(west, &contact));
+  CHECK(late->dynamic_name(contact.other) == "tower-crane-2");
+}

@@ -94,8 +94,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help
+    std::fprintf(stderr, "mgc-plan: %s (see --help)\n", e.what());
+    return 2;
   }
   if (!check) {
     std::fprintf(stderr, "mgc-plan: nothing to do: give --check (this build has no planner yet)\n");

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
+# mgc-plan's contract: exit 0 on success, 2 on bad input with exactly one line on stderr naming the
+# file, the line and the field.
+set -u
+plan="$1"
+root="$2"
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+for scenario in "$root"/scenarios/*.yaml; do
+  "$plan" --scenario "$scenario" --check >"$tmp/out" 2>"$tmp/err"
+  code=$?
+  [ "$code" -eq 0 ] || fail "$scenario: exit $code, expected 0: $(cat "$tmp/err")"
+  [ -s "$tmp/err" ] && fail "$scenario: unexpected stderr: $(cat "$tmp/err")"
+  grep -q "^start .*" "$tmp/out" && grep -q "feasible, clearance" "$tmp/out" || fail "$scenario: no feasibility report"
+  grep -q "joint-space line from start to goal is blocked" "$tmp/out" || fail "$scenario: straight line not reported blocked"
+done
+
+# expect_bad <name> <regex for the single stderr line> <mgc-plan args...>
+expect_bad() {
+  local name="$1" pattern="$2"
+  shift 2
+  "$plan" "$@" >"$tmp/out" 2>"$tmp/err"
+  local code=$?
+  [ "$code" -eq 2 ] || fail "$name: exit $code, expected 2"
+  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "$name: expected one line on stderr, got: $(cat "$tmp/err")"
+  grep -Eq "$pattern" "$tmp/err" || fail "$name: stderr '$(cat "$tmp/err")' does not match '$pattern'"
+}
+
+sed 's/load_lb: 20000 /load_lb: 150000 /' "$root/scenarios/thesis-steel-frame.yaml" >"$tmp/heavy.yaml"
+sed -i "s|^machine: machines/|machine: $root/scenarios/machines/|" "$tmp/heavy.yaml"
+expect_bad "load above chart" "^$tmp/heavy.yaml:[0-9]+: task.load_lb: expected a load the chart rates" \
+  --scenario "$tmp/heavy.yaml" --check
+
+sed 's/  swing_deg: -80/  swing_deg: 10/' "$root/scenarios/thesis-steel-frame.yaml" >"$tmp/goal-in-frame.yaml"
+sed -i "s|^machine: machines/|machine: $root/scenarios/machines/|" "$tmp/goal-in-frame.yaml"
+expect_bad "goal in collision" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasible: collision: .* hits obstacle 'frame/" \
+  --scenario "$tmp/goal-in-frame.yaml" --check
+
+expect_bad "missing file" "^$tmp/none.yaml: cannot open the file" --scenario "$tmp/none.yaml" --check
+expect_bad "no mode" "nothing to do" --scenario "$root/scenarios/thesis-steel-frame.yaml"
+expect_bad "unknown option" "." --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --frobnicate
+
+"$plan" --help >"$tmp/out" 2>&1 || fail "--help exited non-zero"
+grep -q -- "--check" "$tmp/out" || fail "--help does not mention --check"
+
+if [ "$failures" -eq 0 ]; then
+  echo "mgc-plan CLI: all checks passed"
+  exit 0
+fi
+exit 1
