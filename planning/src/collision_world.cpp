@@ -6,6 +6,9 @@
 #include <fcl/geometry/shape/box.h>
 #include <fcl/geometry/shape/capsule.h>
 #include <fcl/geometry/shape/cylinder.h>
+#include <fcl/math/bv/OBB.h>
+#include <fcl/narrowphase/detail/convexity_based_algorithm/gjk.h>
+#include <fcl/narrowphase/detail/convexity_based_algorithm/minkowski_diff.h>
 #include <fcl/narrowphase/collision.h>
 #include <fcl/narrowphase/distance.h>
 
@@ -30,6 +33,10 @@ const char* to_string(ShapeKind kind) noexcept {
 namespace {
 
 using CollisionObject = fcl::CollisionObjectd;
+
+// FCL's GJKSolver_indep defaults.
+constexpr unsigned int kGjkMaxIterations = 128;
+constexpr double kGjkTolerance = 1e-6;
 using GeometryPtr = std::shared_ptr<fcl::CollisionGeometryd>;
 
 bool positive_finite(const Eigen::Vector3d& v) { return v.allFinite() && (v.array() > 0.0).all(); }
@@ -75,6 +82,45 @@ GeometryPtr make_geometry(const ShapePart& part) {
 void* encode_index(int index) { return reinterpret_cast<void*>(static_cast<std::intptr_t>(index) + 1); }
 int decode_index(void* data) { return static_cast<int>(reinterpret_cast<std::intptr_t>(data) - 1); }
 
+// Yes/no intersection of two posed objects, without touching the heap on the paths our machines
+// and primitive obstacles take:
+//  - box/box: FCL's box-box path (boxBoxIntersect) fills a local contact vector even when no
+//    contacts are requested; its separating-axis test obbDisjoint answers the same question.
+//  - other primitive pairs: FCL's GJK. Both of FCL's narrow-phase solvers allocate here (libccd
+//    builds its shape objects per call, the independent solver always follows an overlap with
+//    EPA for the penetration depth), so GJK runs alone: a yes/no answer needs no depth. An
+//    iteration limit (Failed) counts as contact, the safe side.
+//  - triangle meshes: fcl::collide, which may allocate on contact (documented in the header).
+bool intersects(const CollisionObject* a, const CollisionObject* b, const fcl::CollisionRequestd& request,
+                fcl::CollisionResultd& result) {
+  const bool a_box = a->getNodeType() == fcl::GEOM_BOX;
+  const bool b_box = b->getNodeType() == fcl::GEOM_BOX;
+  if (a_box && b_box) {
+    const auto* box_a = static_cast<const fcl::Boxd*>(a->collisionGeometry().get());
+    const auto* box_b = static_cast<const fcl::Boxd*>(b->collisionGeometry().get());
+    const Eigen::Matrix3d& ra = a->getRotation();
+    const Eigen::Matrix3d relative_rotation = ra.transpose() * b->getRotation();
+    const Eigen::Vector3d relative_translation = ra.transpose() * (b->getTranslation() - a->getTranslation());
+    return !fcl::obbDisjoint(relative_rotation, relative_translation, Eigen::Vector3d(0.5 * box_a->side),
+                             Eigen::Vector3d(0.5 * box_b->side));
+  }
+  if (a->getObjectType() == fcl::OT_GEOM && b->getObjectType() == fcl::OT_GEOM) {
+    // As GJKSolver_indep's shapeIntersect sets it up, minus the EPA stage.
+    fcl::detail::MinkowskiDiff<double> difference;
+    difference.shapes[0] = static_cast<const fcl::ShapeBased*>(a->collisionGeometry().get());
+    difference.shapes[1] = static_cast<const fcl::ShapeBased*>(b->collisionGeometry().get());
+    const fcl::Transform3d& tf_a = a->getTransform();
+    const fcl::Transform3d& tf_b = b->getTransform();
+    difference.toshape1.noalias() = tf_b.linear().transpose() * tf_a.linear();
+    difference.toshape0 = tf_a.inverse(Eigen::Isometry) * tf_b;
+    fcl::detail::GJK<double> gjk(kGjkMaxIterations, kGjkTolerance);
+    return gjk.evaluate(difference, Eigen::Vector3d(-1.0, 0.0, 0.0)) != fcl::detail::GJK<double>::Valid;
+  }
+  result.clear();
+  fcl::collide(a, b, request, result);
+  return result.isCollision();
+}
+
 struct CollideData {
   const fcl::CollisionRequestd* request = nullptr;
   fcl::CollisionResultd* result = nullptr;
@@ -83,9 +129,7 @@ struct CollideData {
 
 bool collide_callback(CollisionObject* a, CollisionObject* b, void* raw) {
   auto* data = static_cast<CollideData*>(raw);
-  data->result->clear();
-  fcl::collide(a, b, *data->request, *data->result);
-  if (!data->result->isCollision()) return false;
+  if (!intersects(a, b, *data->request, *data->result)) return false;
   // The machine body carries no user data; the obstacle does.
   data->hit = decode_index(a->getUserData() != nullptr ? a->getUserData() : b->getUserData());
   return true;
@@ -160,9 +204,11 @@ CollisionWorld::CollisionWorld(const MachineModel& model, double dilation_m)
     body.object = std::make_unique<CollisionObject>(geometry);
     impl_->bodies.push_back(std::move(body));
   }
-  // One contact is all a yes/no query needs; reserving it keeps a hit from allocating.
+  // One contact is all a yes/no query needs; the result keeps its buffer across clear().
   impl_->collision_request.num_max_contacts = 1;
   impl_->collision_request.enable_contact = false;
+  impl_->collision_request.gjk_solver_type = fcl::GST_INDEP;
+  impl_->distance_request.gjk_solver_type = fcl::GST_INDEP;
 }
 
 CollisionWorld::~CollisionWorld() = default;
@@ -265,9 +311,7 @@ bool CollisionWorld::is_free(const JointVector& q, Contact* contact) noexcept {
     for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
       for (auto& part : impl.dynamics[d].parts) {
         if (!body->getAABB().overlap(part.object->getAABB())) continue;
-        impl.collision_result.clear();
-        fcl::collide(body, part.object.get(), impl.collision_request, impl.collision_result);
-        if (impl.collision_result.isCollision()) {
+        if (intersects(body, part.object.get(), impl.collision_request, impl.collision_result)) {
           if (contact) *contact = {Contact::With::Dynamic, b, static_cast<int>(d)};
           return false;
         }
@@ -278,9 +322,7 @@ bool CollisionWorld::is_free(const JointVector& q, Contact* contact) noexcept {
     CollisionObject* a = impl.bodies[static_cast<std::size_t>(pair.body_a)].object.get();
     CollisionObject* b = impl.bodies[static_cast<std::size_t>(pair.body_b)].object.get();
     if (!a->getAABB().overlap(b->getAABB())) continue;
-    impl.collision_result.clear();
-    fcl::collide(a, b, impl.collision_request, impl.collision_result);
-    if (impl.collision_result.isCollision()) {
+    if (intersects(a, b, impl.collision_request, impl.collision_result)) {
       if (contact) *contact = {Contact::With::Self, pair.body_a, pair.body_b};
       return false;
     }

@@ -181,3 +181,49 @@ TEST_CASE("validity checks joint ranges, then constraints, then collision", "[un
   // A swing value far outside [-pi, pi) is still a valid continuous-joint position.
   CHECK(world.validate(q4(720 + 45, 45, 20, 5)).valid());
 }
+
+TEST_CASE("mesh and rotated-box obstacles block like the box they describe", "[unit]") {
+  auto crane = make_crane();
+  // The same 2 x 20 x 10 m wall at x = 14..16: once as a triangle mesh (12 triangles), once as a
+  // box rotated by 90 deg about z (so its given 20 x 2 x 10 size lies across the x axis).
+  StaticObstacle mesh;
+  mesh.name = "wall-mesh";
+  mesh.shape.kind = ShapeKind::Mesh;
+  for (int i = 0; i < 8; ++i) {
+    mesh.shape.vertices_m.emplace_back((i & 1) ? 16.0 : 14.0, (i & 2) ? 10.0 : -10.0, (i & 4) ? 10.0 : 0.0);
+  }
+  mesh.shape.triangles = {{0, 1, 3}, {0, 3, 2}, {4, 6, 7}, {4, 7, 5}, {0, 4, 5}, {0, 5, 1},
+                          {2, 3, 7}, {2, 7, 6}, {0, 2, 6}, {0, 6, 4}, {1, 5, 7}, {1, 7, 3}};
+  StaticObstacle rotated = box("wall-rotated", {15, 0, 5}, {20, 2, 10});
+  rotated.shape.pose.rotate(Eigen::AngleAxisd(90 * kDeg, Eigen::Vector3d::UnitZ()));
+
+  for (const StaticObstacle& wall : {mesh, rotated}) {
+    CAPTURE(wall.name);
+    CollisionWorld world(*crane, 0.15);
+    world.add_static(wall);
+    world.finalize();
+    const double elevation = std::acos(15.0 / 20.0) / kDeg;
+    Contact contact;
+    REQUIRE_FALSE(world.is_free(q4(0, elevation, 20, 10), &contact));
+    CHECK(world.static_name(contact.other) == wall.name);
+    CHECK(world.is_free(q4(0, elevation, 20, 2)));
+    CHECK(world.is_free(q4(90, elevation, 20, 10)));
+    // Load at radius 10 (elevation 60 on a 20 m boom): its dilated face at x = 11.15; the wall at 14.
+    const Clearance c = world.clearance(q4(0, 60, 20, 12));
+    CHECK(c.distance_m == Approx(14.0 - 11.15).margin(1e-6));
+  }
+}
+
+TEST_CASE("collision world rejects degenerate shapes", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.1);
+  CHECK_THROWS_AS(world.add_static(box("flat", {0, 0, 0}, {1, 0, 1})), std::invalid_argument);
+  StaticObstacle mesh;
+  mesh.name = "bad-mesh";
+  mesh.shape.kind = ShapeKind::Mesh;
+  mesh.shape.vertices_m = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  CHECK_THROWS_AS(world.add_static(mesh), std::invalid_argument);  // no triangles
+  mesh.shape.triangles = {{0, 1, 5}};
+  CHECK_THROWS_AS(world.add_static(mesh), std::invalid_argument);  // index out of range
+  CHECK_THROWS_AS(CollisionWorld(*crane, -0.1), std::invalid_argument);
+}

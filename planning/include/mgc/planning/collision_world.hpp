@@ -46,7 +46,9 @@ struct Clearance {
 //! obstacles whose poses change every cycle, and the machine's bodies posed by forward kinematics
 //! and dilated by a safety margin.
 //!
-//! Build with add_*() then finalize(); after that, queries and set_dynamic_pose() do not allocate.
+//! Build with add_*() then finalize(); after that, queries and set_dynamic_pose() do not allocate
+//! (a test counts), except that a machine body touching a triangle-mesh obstacle goes through
+//! FCL's mesh path, which may.
 //! Queries pose the machine's own FCL objects, so a world is not shared between threads: give
 //! each planning thread its own.
 class CollisionWorld {

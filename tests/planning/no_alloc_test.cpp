@@ -1,0 +1,72 @@
+// SPDX-License-Identifier: Apache-2.0
+// After finalize(), collision queries and dynamic-obstacle moves must not touch the heap: the
+// controller will run them every cycle. Global operator new is replaced to count allocations.
+#include <catch2/catch.hpp>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <random>
+
+#include "mgc/planning/io/scenario_loader.hpp"
+#include "test_support.hpp"
+
+namespace {
+std::atomic<long> g_allocations{0};
+}
+
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) { return operator new(size); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace mgc::planning;
+
+TEST_CASE("collision queries and dynamic moves do not allocate after finalize", "[unit]") {
+  for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
+    CAPTURE(name);
+    auto loaded = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + name));
+    CollisionWorld& world = *loaded.world;
+    const MachineModel& model = *loaded.model;
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<JointVector> configurations;
+    for (int i = 0; i < 2000; ++i) {
+      JointVector q(model.dof());
+      for (int j = 0; j < model.dof(); ++j) {
+        const JointSpec& s = model.joints()[static_cast<std::size_t>(j)];
+        q[j] = s.position_min + u(rng) * s.range();
+      }
+      configurations.push_back(q);
+    }
+    const JointVector steps = step_sizes(model, loaded.scenario.planner.space_resolution);
+    const auto run = [&](int count) {
+      int collisions = 0;
+      for (int i = 0; i < count; ++i) {
+        const JointVector& q = configurations[static_cast<std::size_t>(i)];
+        for (int d = 0; d < world.num_dynamic(); ++d) {
+          world.set_dynamic_pose(d, loaded.scenario.dynamic_obstacles[static_cast<std::size_t>(d)].pose_at(0.05 * i));
+        }
+        Contact contact;
+        collisions += world.is_free(q, &contact) ? 0 : 1;
+        (void)world.validate(q);
+        (void)world.validate_edge(q, configurations[static_cast<std::size_t>(count - 1 - i)], steps);
+        (void)world.clearance(q);
+      }
+      return collisions;
+    };
+    // Warm-up: the first contact ever found sizes FCL's result buffers once.
+    REQUIRE(run(100) > 0);
+    const long before = g_allocations.load();
+    const int collisions = run(static_cast<int>(configurations.size()));
+    const long allocations = g_allocations.load() - before;
+    CHECK(collisions > 0);
+    CHECK(allocations == 0);
+  }
+}
