@@ -9,6 +9,7 @@
 #include <random>
 
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/planners/planner.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -68,5 +69,35 @@ TEST_CASE("collision queries and dynamic moves do not allocate after finalize", 
     const long allocations = g_allocations.load() - before;
     CHECK(collisions > 0);
     CHECK(allocations == 0);
+  }
+}
+
+TEST_CASE("planner step() does not allocate after reset", "[unit]") {
+  for (const char* planner_name : {"limcon", "rrt"}) {
+    for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
+      CAPTURE(planner_name, name);
+      auto loaded = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + name));
+      PlanningProblem problem;
+      problem.model = loaded.model.get();
+      problem.world = loaded.world.get();
+      problem.start = loaded.scenario.start;
+      problem.goal = loaded.scenario.goal;
+      problem.step = step_sizes(*loaded.model, loaded.scenario.planner.space_resolution);
+      problem.goal_bias = loaded.scenario.planner.goal_bias;
+      problem.max_iterations = 20000;
+      problem.seed = 5;
+      auto planner = make_planner(planner_name);
+      // Warm up FCL's one-time buffers with a full query, then count a second one.
+      PlannerStatus status = planner->reset(problem);
+      while (status == PlannerStatus::Running) status = planner->step(100);
+      problem.seed = 6;
+      status = planner->reset(problem);
+      const long before = g_allocations.load();
+      while (status == PlannerStatus::Running) status = planner->step(100);
+      const long allocations = g_allocations.load() - before;
+      CHECK(status == PlannerStatus::Solved);
+      CHECK(planner->stats().iterations > 0);
+      CHECK(allocations == 0);
+    }
   }
 }

@@ -41,7 +41,29 @@ expect_bad "goal in collision" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasibl
   --scenario "$tmp/goal-in-frame.yaml" --check
 
 expect_bad "missing file" "^$tmp/none.yaml: cannot open the file" --scenario "$tmp/none.yaml" --check
-expect_bad "no mode" "nothing to do" --scenario "$root/scenarios/thesis-steel-frame.yaml"
+expect_bad "no mode" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml"
+expect_bad "both modes" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --planner limcon
+expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, got 'bogus'$" \
+  --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner bogus
+expect_bad "planning from an infeasible goal" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasible" \
+  --scenario "$tmp/goal-in-frame.yaml" --planner limcon
+
+# Planning: exit 0 with the JSON's required keys; exit 1 when the limits are too tight.
+"$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner limcon --seed 3 --json "$tmp/plan.json" >"$tmp/out" 2>"$tmp/err"
+code=$?
+[ "$code" -eq 0 ] || fail "limcon: exit $code: $(cat "$tmp/err")"
+for key in success planner seed joint_names joint_units path planning_time_ms iterations tree_nodes path_nodes \
+           dof_switches exec_time_sequential_s exec_time_simultaneous_s min_clearance_m; do
+  grep -q "\"$key\":" "$tmp/plan.json" || fail "plan JSON lacks key $key"
+done
+grep -q '"success":true' "$tmp/plan.json" || fail "plan JSON does not say success"
+grep -q '"joint_units":\["deg","deg","m","m"\]' "$tmp/plan.json" || fail "plan JSON joint units wrong"
+grep -q '"seed":3,' "$tmp/plan.json" || fail "plan JSON seed is not the one given"
+"$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner rrt --max-iterations 3 --json "$tmp/fail.json" >"$tmp/out" 2>"$tmp/err"
+code=$?
+[ "$code" -eq 1 ] || fail "rrt with 3 iterations: exit $code, expected 1"
+grep -q '"success":false' "$tmp/fail.json" || fail "failed plan JSON does not say success false"
+grep -q '"path":\[\]' "$tmp/fail.json" || fail "failed plan JSON has a path"
 expect_bad "unknown option" "." --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --frobnicate
 
 "$plan" --help >"$tmp/out" 2>&1 || fail "--help exited non-zero"

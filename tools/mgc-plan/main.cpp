@@ -1,20 +1,26 @@
 // SPDX-License-Identifier: Apache-2.0
 // mgc-plan: offline tool over the planning library. `--check` loads a scenario, validates every
-// field, and reports whether start and goal are feasible and, if not, why.
+// field, and reports whether start and goal are feasible and, if not, why. `--planner NAME` plans
+// the scenario's lift and writes the path and its metrics as JSON (docs/plan-json.md).
 //
 // Exit status: 0 feasible, 1 the job could not be done, 2 bad input (one line on stderr naming
 // the file, the line, the field and what was expected).
 
 #include <CLI/CLI.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <iostream>
+#include <fstream>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <string>
 
+#include "json_writer.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/path_metrics.hpp"
+#include "mgc/planning/planners/planner.hpp"
 
 namespace {
 
@@ -83,14 +89,150 @@ int run_check(const std::string& scenario_file) {
   return errors.empty() ? 0 : 2;
 }
 
+struct PlanOptions {
+  std::string scenario;
+  std::string planner;
+  std::optional<std::uint64_t> seed;
+  std::optional<int> max_iterations;
+  double time_limit_s = 60.0;
+  std::string json;
+};
+
+// File units: degrees for revolute joints, metres for prismatic ones.
+double to_file_units(const mgc::planning::JointSpec& j, double value) {
+  return j.type == JointType::Revolute ? value * 180.0 / std::numbers::pi : value;
+}
+
+int run_plan(const PlanOptions& options) {
+  using namespace mgc::planning;
+  auto planner = make_planner(options.planner);
+  if (!planner) {
+    std::string names;
+    for (auto n : planner_names()) names += (names.empty() ? "" : ", ") + std::string(n);
+    std::fprintf(stderr, "mgc-plan: --planner: expected one of %s, got '%s'\n", names.c_str(), options.planner.c_str());
+    return 2;
+  }
+  auto loaded = io::load_and_build(options.scenario);
+  const auto errors = io::check_endpoints(loaded);
+  if (!errors.empty()) {
+    for (const auto& e : errors) std::fprintf(stderr, "%s\n", e.what());
+    return 2;
+  }
+  const Scenario& s = loaded.scenario;
+  PlanningProblem problem;
+  problem.model = loaded.model.get();
+  problem.world = loaded.world.get();
+  problem.start = s.start;
+  problem.goal = s.goal;
+  problem.step = step_sizes(*loaded.model, s.planner.space_resolution);
+  problem.error_tolerance = s.planner.error_tolerance;
+  problem.goal_bias = s.planner.goal_bias;
+  problem.max_iterations = options.max_iterations.value_or(s.planner.max_iterations);
+  problem.seed = options.seed.value_or(s.planner.seed);
+
+  // The planner reads no clock; the tool slices its work and watches the time.
+  constexpr int kIterationsPerSlice = 50;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto elapsed_s = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  PlannerStatus status = planner->reset(problem);
+  bool timed_out = false;
+  while (status == PlannerStatus::Running) {
+    if (elapsed_s() >= options.time_limit_s) {
+      timed_out = true;
+      break;
+    }
+    status = planner->step(kIterationsPerSlice);
+  }
+  const double planning_time_ms = 1000.0 * elapsed_s();
+  const PlannerStats stats = planner->stats();
+  const bool success = status == PlannerStatus::Solved;
+  const std::vector<JointVector> empty;
+  const auto& path = success ? planner->path() : empty;
+  const PathMetrics metrics = compute_path_metrics(*loaded.model, *loaded.world, path, problem.step);
+  const std::string status_text = timed_out ? "time limit reached" : to_string(status);
+
+  std::printf("%s %s seed %llu: %s in %.2f ms, %d iterations, %d tree nodes", options.planner.c_str(), s.name.c_str(),
+              static_cast<unsigned long long>(problem.seed), status_text.c_str(), planning_time_ms, stats.iterations,
+              stats.tree_nodes);
+  if (success) {
+    std::printf(", %d path nodes, %d DoF switches, %.1f s one joint at a time, clearance %.2f m", metrics.path_nodes,
+                metrics.dof_switches, metrics.exec_time_sequential_s, metrics.min_clearance_m);
+  }
+  std::printf("\n");
+
+  if (!options.json.empty()) {
+    std::ofstream out(options.json);
+    if (!out) {
+      std::fprintf(stderr, "%s: cannot write the file\n", options.json.c_str());
+      return 2;
+    }
+    const MachineModel& model = *loaded.model;
+    mgc::tools::JsonWriter j(out);
+    j.begin_object();
+    j.key("success").value(success);
+    j.key("status").value(status_text);
+    j.key("planner").value(options.planner);
+    j.key("scenario").value(s.file);
+    j.key("seed").value(problem.seed);
+    j.key("joint_names").begin_array();
+    for (const auto& joint : model.joints()) j.value(joint.name);
+    j.end_array();
+    j.key("joint_units").begin_array();
+    for (const auto& joint : model.joints()) j.value(joint.type == JointType::Revolute ? "deg" : "m");
+    j.end_array();
+    j.key("path").begin_array();
+    for (const JointVector& q : path) {
+      j.begin_array();
+      for (int i = 0; i < model.dof(); ++i) j.value(to_file_units(model.joints()[static_cast<std::size_t>(i)], q[i]));
+      j.end_array();
+    }
+    j.end_array();
+    j.key("moving_joint").begin_array();
+    for (std::size_t e = 0; e + 1 < path.size(); ++e) j.value(moving_joint(model, path[e], path[e + 1]));
+    j.end_array();
+    j.key("planning_time_ms").value(planning_time_ms);
+    j.key("iterations").value(stats.iterations);
+    j.key("tree_nodes").value(stats.tree_nodes);
+    j.key("collision_checks").value(stats.collision_checks);
+    j.key("path_nodes").value(metrics.path_nodes);
+    j.key("dof_switches").value(metrics.dof_switches);
+    j.key("multi_joint_edges").value(metrics.multi_joint_edges);
+    j.key("length_normalized").value(metrics.length_normalized);
+    j.key("roughness").value(metrics.roughness);
+    j.key("exec_time_sequential_s").value(metrics.exec_time_sequential_s);
+    j.key("exec_time_simultaneous_s").value(metrics.exec_time_simultaneous_s);
+    j.key("cost").value(metrics.cost);
+    j.key("min_clearance_m").value(metrics.min_clearance_m);
+    j.key("parameters").begin_object();
+    j.key("max_iterations").value(problem.max_iterations);
+    j.key("time_limit_s").value(options.time_limit_s);
+    j.key("goal_bias").value(problem.goal_bias);
+    j.key("space_resolution").value(s.planner.space_resolution);
+    j.key("error_tolerance").value(problem.error_tolerance);
+    j.key("dilation_m").value(s.planner.dilation_m);
+    j.end_object();
+    j.end_object();
+    out << "\n";
+  }
+  return success ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"mgc-plan: load, check and plan crane and excavator lifts on a scenario file"};
-  std::string scenario;
+  PlanOptions options;
   bool check = false;
-  app.add_option("--scenario", scenario, "scenario file (YAML, docs/scenario-format.md)")->required();
+  std::uint64_t seed = 0;
+  int max_iterations = 0;
+  app.add_option("--scenario", options.scenario, "scenario file (YAML, docs/scenario-format.md)")->required();
   app.add_flag("--check", check, "validate the scenario and report whether start and goal are feasible");
+  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: limcon, rrt");
+  auto* seed_option = app.add_option("--seed", seed, "random seed (default: the scenario's)");
+  auto* iterations_option =
+      app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(CLI::PositiveNumber);
+  app.add_option("--time-limit", options.time_limit_s, "wall-clock limit on planning [s] (default 60)")->check(CLI::PositiveNumber);
+  app.add_option("--json", options.json, "write the plan and its metrics here (docs/plan-json.md)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -98,12 +240,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mgc-plan: %s (see --help)\n", e.what());
     return 2;
   }
-  if (!check) {
-    std::fprintf(stderr, "mgc-plan: nothing to do: give --check (this build has no planner yet)\n");
+  if (*seed_option) options.seed = seed;
+  if (*iterations_option) options.max_iterations = max_iterations;
+  if (check == (planner_option->count() > 0)) {
+    std::fprintf(stderr, "mgc-plan: give either --check or --planner NAME (see --help)\n");
     return 2;
   }
   try {
-    return run_check(scenario);
+    return check ? run_check(options.scenario) : run_plan(options);
   } catch (const mgc::planning::io::InputError& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;

@@ -1,0 +1,31 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <vector>
+
+#include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/machine_model.hpp"
+
+namespace mgc::planning {
+
+//! Quality of a joint-space path (consecutive configurations joined by straight edges).
+struct PathMetrics {
+  int path_nodes = 0;
+  int dof_switches = 0;                   //!< consecutive edges that move different joints
+  int multi_joint_edges = 0;              //!< edges that move more than one joint
+  double length_normalized = 0.0;         //!< seed 000: Euclidean length with every joint scaled to [0, 1] by its range [-]
+  double roughness = 0.0;                 //!< seed 000 Eq. 3: as length_normalized, without the hoist (cranes) [-]
+  double exec_time_sequential_s = 0.0;    //!< one joint at a time at full speed: sum over edges of sum_j |d_j| / v_j [s]
+  double exec_time_simultaneous_s = 0.0;  //!< all joints together: sum over edges of max_j |d_j| / v_j [s]
+  double cost = 0.0;                      //!< seed 000 Eq. 4 as used there: 0.5 t [min] + 0.5 roughness [-]
+  double min_clearance_m = 0.0;           //!< smallest clearance at the path's check resolution [m]
+};
+
+//! The joint an edge moves: its index, -1 when none moves, -2 when several do.
+[[nodiscard]] int moving_joint(const MachineModel& model, const JointVector& from, const JointVector& to) noexcept;
+
+//! Metrics of `path`; clearance is sampled along every edge at `step` resolution.
+[[nodiscard]] PathMetrics compute_path_metrics(const MachineModel& model, CollisionWorld& world,
+                                               const std::vector<JointVector>& path, const JointVector& step);
+
+}  // namespace mgc::planning

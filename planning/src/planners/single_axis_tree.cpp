@@ -1,0 +1,233 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/planning/planners/single_axis_tree.hpp"
+
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace mgc::planning {
+
+const char* to_string(PlannerStatus status) noexcept {
+  switch (status) {
+    case PlannerStatus::Running: return "running";
+    case PlannerStatus::Solved: return "solved";
+    case PlannerStatus::InvalidStart: return "invalid start";
+    case PlannerStatus::InvalidGoal: return "invalid goal";
+    case PlannerStatus::IterationLimit: return "iteration limit reached";
+    case PlannerStatus::PoolExhausted: return "node pool exhausted";
+    case PlannerStatus::NotReset: return "not reset";
+  }
+  return "unknown";
+}
+
+double step_metric(const MachineModel& model, const JointVector& step, const JointVector& a,
+                   const JointVector& b) noexcept {
+  const JointVector d = model.difference(a, b);
+  double sum = 0.0;
+  for (int i = 0; i < model.dof(); ++i) {
+    const double w = d[i] / step[i];
+    sum += w * w;
+  }
+  return std::sqrt(sum);
+}
+
+PlannerStatus SingleAxisTreePlanner::reset(const PlanningProblem& problem) {
+  problem_ = &problem;
+  random_.reseed(problem.seed);
+  iterations_ = 0;
+  nodes_.clear();
+  parents_.clear();
+  path_.clear();
+  checks_at_reset_ = problem.world->collision_checks();
+  capacity_ = static_cast<std::size_t>(problem.node_capacity > 0 ? problem.node_capacity : problem.max_iterations + 1);
+  nodes_.reserve(capacity_);
+  parents_.reserve(capacity_);
+  scratch_indices_.reserve(capacity_);
+  path_.reserve(capacity_ + static_cast<std::size_t>(problem.model->dof()) + 1);
+
+  if (!valid(problem.start)) return status_ = PlannerStatus::InvalidStart;
+  if (!valid(problem.goal)) return status_ = PlannerStatus::InvalidGoal;
+  if (!add_node(problem.start, -1)) return status_ = PlannerStatus::PoolExhausted;
+  status_ = PlannerStatus::Running;
+  if (near_goal(problem.start) && finish(0)) status_ = PlannerStatus::Solved;
+  return status_;
+}
+
+PlannerStatus SingleAxisTreePlanner::step(int iteration_budget) noexcept {
+  if (status_ != PlannerStatus::Running) return status_;
+  for (int k = 0; k < iteration_budget; ++k) {
+    if (iterations_ >= problem_->max_iterations) return status_ = PlannerStatus::IterationLimit;
+    ++iterations_;
+    const std::size_t before = nodes_.size();
+    if (!iterate()) return status_ = PlannerStatus::PoolExhausted;
+    // Only a new node can be the first to come within the goal tolerance.
+    if (nodes_.size() > before && near_goal(nodes_.back()) && finish(static_cast<int>(nodes_.size()) - 1)) {
+      return status_ = PlannerStatus::Solved;
+    }
+  }
+  return status_;
+}
+
+PlannerStats SingleAxisTreePlanner::stats() const noexcept {
+  PlannerStats s;
+  s.iterations = iterations_;
+  s.tree_nodes = static_cast<int>(nodes_.size());
+  if (problem_) s.collision_checks = problem_->world->collision_checks() - checks_at_reset_;
+  return s;
+}
+
+void SingleAxisTreePlanner::tree(std::vector<JointVector>& nodes, std::vector<int>& parents) const {
+  nodes = nodes_;
+  parents = parents_;
+}
+
+JointVector SingleAxisTreePlanner::sample() noexcept {
+  if (random_.uniform() < problem_->goal_bias) return problem_->goal;
+  const MachineModel& model = *problem_->model;
+  JointVector q(model.dof());
+  for (int i = 0; i < model.dof(); ++i) {
+    const JointSpec& j = model.joints()[static_cast<std::size_t>(i)];
+    q[i] = random_.uniform(j.position_min, j.position_max);
+  }
+  return q;
+}
+
+int SingleAxisTreePlanner::nearest(const JointVector& q) const noexcept {
+  int best = -1;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const double d = metric(nodes_[i], q);
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+JointVector SingleAxisTreePlanner::apply(const JointVector& q, int input) const noexcept {
+  JointVector moved = q;
+  const int joint = input / 2;
+  moved[joint] += (input % 2 == 0 ? 1.0 : -1.0) * problem_->step[joint];
+  if (problem_->model->joints()[static_cast<std::size_t>(joint)].continuous) moved[joint] = wrap_angle(moved[joint]);
+  return moved;
+}
+
+int SingleAxisTreePlanner::select_input(const JointVector& from, const JointVector& target, JointVector& moved) noexcept {
+  // Rank the 2n moves by how close they end to the target, then take the first valid one: the
+  // same choice as validating all of them, with fewer collision checks.
+  const int inputs = 2 * problem_->model->dof();
+  std::array<double, 2 * kMaxJoints> distance{};
+  std::array<int, 2 * kMaxJoints> order{};
+  const double from_distance = metric(from, target);
+  for (int u = 0; u < inputs; ++u) {
+    distance[static_cast<std::size_t>(u)] = metric(apply(from, u), target);
+    order[static_cast<std::size_t>(u)] = u;
+  }
+  // Insertion sort: stable, and unlike std::stable_sort it needs no heap buffer; n <= 16.
+  for (int k = 1; k < inputs; ++k) {
+    const int u = order[static_cast<std::size_t>(k)];
+    int m = k;
+    for (; m > 0 && distance[static_cast<std::size_t>(u)] < distance[static_cast<std::size_t>(order[static_cast<std::size_t>(m - 1)])]; --m) {
+      order[static_cast<std::size_t>(m)] = order[static_cast<std::size_t>(m - 1)];
+    }
+    order[static_cast<std::size_t>(m)] = u;
+  }
+  for (int k = 0; k < inputs; ++k) {
+    const int u = order[static_cast<std::size_t>(k)];
+    if (!(distance[static_cast<std::size_t>(u)] < from_distance)) break;
+    JointVector candidate = apply(from, u);
+    if (valid(candidate)) {
+      moved = candidate;
+      return u;
+    }
+  }
+  return -1;
+}
+
+bool SingleAxisTreePlanner::add_node(const JointVector& q, int parent) noexcept {
+  if (nodes_.size() >= capacity_) return false;
+  nodes_.push_back(q);
+  parents_.push_back(parent);
+  return true;
+}
+
+bool SingleAxisTreePlanner::near_goal(const JointVector& q) const noexcept {
+  const JointVector d = problem_->model->difference(q, problem_->goal);
+  for (int i = 0; i < problem_->model->dof(); ++i) {
+    if (std::abs(d[i]) > problem_->error_tolerance * problem_->step[i]) return false;
+  }
+  return true;
+}
+
+bool SingleAxisTreePlanner::finish(int node) noexcept {
+  scratch_indices_.clear();
+  for (int n = node; n >= 0; n = parents_[static_cast<std::size_t>(n)]) scratch_indices_.push_back(n);
+  path_.clear();
+  for (auto it = scratch_indices_.rbegin(); it != scratch_indices_.rend(); ++it) {
+    path_.push_back(nodes_[static_cast<std::size_t>(*it)]);
+  }
+  // MSL jumps the last gap in one move; moving the remaining joints one at a time, each move
+  // validated at step resolution, keeps every edge single-axis and lands on the exact goal.
+  JointVector current = path_.back();
+  for (int i = 0; i < problem_->model->dof(); ++i) {
+    if (current[i] == problem_->goal[i]) continue;
+    JointVector next = current;
+    next[i] = problem_->goal[i];
+    if (!problem_->world->validate_edge(current, next, problem_->step).valid()) {
+      path_.clear();
+      return false;
+    }
+    path_.push_back(next);
+    current = next;
+  }
+  return true;
+}
+
+bool LimConPlanner::iterate() noexcept {
+  const JointVector target = sample();
+  const int near = nearest(target);
+  JointVector next;
+  const int input = select_input(nodes_[static_cast<std::size_t>(near)], target, next);
+  if (input < 0) return true;
+  const JointVector& goal = problem_->goal;
+  double d = metric(next, target);
+  double d_prev = d;
+  JointVector last = next;
+  double d_last_goal = metric(nodes_[static_cast<std::size_t>(near)], goal);
+  double d_goal = metric(next, goal);
+  // App. E limits the run by the goal only when its first step approached the goal.
+  const bool track = d_goal < d_last_goal;
+  if (!track) {
+    d_last_goal = 1.0;
+    d_goal = 0.0;
+  }
+  // The same input repeats; the run is bounded by the joint's range in steps (a continuous
+  // joint: half a turn), which the distance test would end anyway.
+  const double steps_in_range = problem_->model->joints()[static_cast<std::size_t>(input / 2)].range() /
+                                problem_->step[input / 2];
+  const int max_run = static_cast<int>(std::ceil(steps_in_range)) + 2;
+  bool first = true;
+  for (int run = 0; run < max_run && d <= d_prev && d_goal < d_last_goal && (first || valid(next)); ++run) {
+    first = false;
+    last = next;
+    d_prev = d;
+    next = apply(last, input);
+    d = metric(next, target);
+    if (track) {
+      d_last_goal = d_goal;
+      d_goal = metric(next, goal);
+    }
+  }
+  return add_node(last, near);
+}
+
+bool GoalBiasedRrtPlanner::iterate() noexcept {
+  const JointVector target = sample();
+  const int near = nearest(target);
+  JointVector next;
+  if (select_input(nodes_[static_cast<std::size_t>(near)], target, next) < 0) return true;
+  return add_node(next, near);
+}
+
+}  // namespace mgc::planning

@@ -1,0 +1,185 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <catch2/catch.hpp>
+
+#include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/path_metrics.hpp"
+#include "mgc/planning/planners/planner.hpp"
+#include "test_support.hpp"
+
+using namespace mgc::planning;
+using mgc::test::kDeg;
+
+namespace {
+
+const char* const kScenarios[] = {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"};
+
+struct Fixture {
+  io::LoadedScenario loaded;
+  PlanningProblem problem;
+
+  explicit Fixture(const std::string& name, std::uint64_t seed = 0)
+      : loaded(io::load_and_build(mgc::test::source_path("scenarios/" + name))) {
+    const Scenario& s = loaded.scenario;
+    problem.model = loaded.model.get();
+    problem.world = loaded.world.get();
+    problem.start = s.start;
+    problem.goal = s.goal;
+    problem.step = step_sizes(*loaded.model, s.planner.space_resolution);
+    problem.error_tolerance = s.planner.error_tolerance;
+    problem.goal_bias = s.planner.goal_bias;
+    problem.max_iterations = s.planner.max_iterations;
+    problem.seed = seed;
+  }
+};
+
+PlannerStatus run(Planner& planner, const PlanningProblem& problem, int budget = 1000) {
+  PlannerStatus status = planner.reset(problem);
+  while (status == PlannerStatus::Running) status = planner.step(budget);
+  return status;
+}
+
+// An independent check of a returned path: a fresh world (not the planner's), every edge at a
+// quarter of the planner's step, exact start and goal.
+void dense_recheck(const std::string& scenario, const std::vector<JointVector>& path) {
+  auto fresh = io::load_and_build(mgc::test::source_path("scenarios/" + scenario));
+  const JointVector fine = step_sizes(*fresh.model, 4 * fresh.scenario.planner.space_resolution);
+  REQUIRE(path.size() >= 2);
+  CHECK(path.front() == fresh.scenario.start);
+  CHECK(path.back() == fresh.scenario.goal);
+  CHECK(fresh.world->validate(path.front()).valid());
+  for (std::size_t e = 0; e + 1 < path.size(); ++e) {
+    JointVector at;
+    const Validity v = fresh.world->validate_edge(path[e], path[e + 1], fine, &at);
+    CAPTURE(e, fresh.world->describe(v));
+    REQUIRE(v.valid());
+  }
+}
+
+}  // namespace
+
+TEST_CASE("limcon solves every shipped scenario, one joint per edge, densely valid", "[planner]") {
+  for (const char* scenario : kScenarios) {
+    for (std::uint64_t seed = 0; seed < 5; ++seed) {
+      CAPTURE(scenario, seed);
+      Fixture f(scenario, seed);
+      auto planner = make_planner("limcon");
+      REQUIRE(run(*planner, f.problem) == PlannerStatus::Solved);
+      const auto& path = planner->path();
+      dense_recheck(scenario, path);
+      for (std::size_t e = 0; e + 1 < path.size(); ++e) {
+        CAPTURE(e);
+        CHECK(moving_joint(*f.loaded.model, path[e], path[e + 1]) >= 0);
+      }
+      CHECK(planner->stats().tree_nodes <= planner->stats().iterations + 1);
+    }
+  }
+}
+
+TEST_CASE("rrt (goal-biased, single step) solves every shipped scenario, densely valid", "[planner]") {
+  for (const char* scenario : kScenarios) {
+    CAPTURE(scenario);
+    Fixture f(scenario, 1);
+    f.problem.max_iterations = 20000;
+    auto planner = make_planner("rrt");
+    REQUIRE(run(*planner, f.problem) == PlannerStatus::Solved);
+    dense_recheck(scenario, planner->path());
+    // Single steps: every edge but the final gap-closing moves is one step of one joint.
+    const auto& path = planner->path();
+    for (std::size_t e = 0; e + 1 < path.size(); ++e) CHECK(moving_joint(*f.loaded.model, path[e], path[e + 1]) >= 0);
+  }
+}
+
+TEST_CASE("same seed, same path, bit for bit; slicing does not change it", "[planner]") {
+  for (const char* name : {"limcon", "rrt"}) {
+    CAPTURE(name);
+    Fixture a("thesis-steel-frame.yaml", 7);
+    Fixture b("thesis-steel-frame.yaml", 7);
+    auto pa = make_planner(name);
+    auto pb = make_planner(name);
+    a.problem.max_iterations = b.problem.max_iterations = 20000;
+    REQUIRE(run(*pa, a.problem, 1000) == PlannerStatus::Solved);
+    REQUIRE(run(*pb, b.problem, 1) == PlannerStatus::Solved);  // one iteration per slice
+    REQUIRE(pa->path().size() == pb->path().size());
+    for (std::size_t i = 0; i < pa->path().size(); ++i) CHECK(pa->path()[i] == pb->path()[i]);
+    CHECK(pa->stats().iterations == pb->stats().iterations);
+    // A different seed gives a different tree.
+    Fixture c("thesis-steel-frame.yaml", 8);
+    c.problem.max_iterations = 20000;
+    auto pc = make_planner(name);
+    REQUIRE(run(*pc, c.problem) == PlannerStatus::Solved);
+    std::vector<JointVector> nodes_a, nodes_c;
+    std::vector<int> parents_a, parents_c;
+    pa->tree(nodes_a, parents_a);
+    pc->tree(nodes_c, parents_c);
+    CHECK((nodes_a.size() != nodes_c.size() || nodes_a != nodes_c));
+  }
+}
+
+TEST_CASE("limcon builds far smaller trees and paths than single-step rrt", "[planner]") {
+  Fixture f("thesis-steel-frame.yaml", 3);
+  f.problem.max_iterations = 20000;
+  auto limcon = make_planner("limcon");
+  auto rrt = make_planner("rrt");
+  REQUIRE(run(*limcon, f.problem) == PlannerStatus::Solved);
+  REQUIRE(run(*rrt, f.problem) == PlannerStatus::Solved);
+  CHECK(limcon->path().size() * 5 <= rrt->path().size());
+  CHECK(limcon->stats().tree_nodes * 5 <= rrt->stats().tree_nodes);
+}
+
+TEST_CASE("planner errors: invalid start or goal, exhausted pool, iteration limit, unknown name", "[planner]") {
+  Fixture f("thesis-steel-frame.yaml");
+  auto planner = make_planner("limcon");
+  SECTION("goal in collision") {
+    f.problem.goal[0] = 10 * kDeg;  // load swung into the frame
+    CHECK(planner->reset(f.problem) == PlannerStatus::InvalidGoal);
+    CHECK(planner->step(10) == PlannerStatus::InvalidGoal);
+  }
+  SECTION("start outside the joint range") {
+    f.problem.start[2] = 40.0;
+    CHECK(planner->reset(f.problem) == PlannerStatus::InvalidStart);
+  }
+  SECTION("the pool is sized at reset and never grows") {
+    f.problem.node_capacity = 3;
+    CHECK(run(*planner, f.problem) == PlannerStatus::PoolExhausted);
+    CHECK(planner->stats().tree_nodes == 3);
+  }
+  SECTION("iteration limit") {
+    f.problem.max_iterations = 2;
+    CHECK(run(*planner, f.problem) == PlannerStatus::IterationLimit);
+    CHECK(planner->stats().iterations == 2);
+  }
+  SECTION("step before reset") { CHECK(planner->step(10) == PlannerStatus::NotReset); }
+  CHECK(make_planner("rrt-star-please") == nullptr);
+}
+
+TEST_CASE("path metrics of a hand-made path", "[unit]") {
+  Fixture f("thesis-steel-frame.yaml");
+  const MachineModel& model = *f.loaded.model;
+  // Start -> boom up 10 deg -> swing -20 deg -> boom up 5 deg.
+  std::vector<JointVector> path{f.problem.start};
+  JointVector q = f.problem.start;
+  q[1] += 10 * kDeg;
+  path.push_back(q);
+  q[0] -= 20 * kDeg;
+  path.push_back(q);
+  q[1] += 5 * kDeg;
+  path.push_back(q);
+  const PathMetrics m = compute_path_metrics(model, *f.loaded.world, path, f.problem.step);
+  CHECK(m.path_nodes == 4);
+  CHECK(m.dof_switches == 2);
+  CHECK(m.multi_joint_edges == 0);
+  // Luff 15 deg at 1.04 deg/s, swing 20 deg at 3.75 deg/s; one joint moves per edge, so both
+  // execution times agree.
+  CHECK(m.exec_time_sequential_s == Approx(15 / 1.04 + 20 / 3.75));
+  CHECK(m.exec_time_simultaneous_s == Approx(m.exec_time_sequential_s));
+  // Normalized: luff range 80 deg, swing a full turn.
+  CHECK(m.length_normalized == Approx(10.0 / 80 + 20.0 / 360 + 5.0 / 80));
+  CHECK(m.roughness == Approx(m.length_normalized));
+  CHECK(m.cost == Approx(0.5 * m.exec_time_sequential_s / 60 + 0.5 * m.roughness));
+  CHECK(m.min_clearance_m > 0.0);
+  CHECK(moving_joint(model, path[0], path[1]) == 1);
+  JointVector both = path[0];
+  both[0] += 0.1;
+  both[3] += 0.1;
+  CHECK(moving_joint(model, path[0], both) == -2);
+}
