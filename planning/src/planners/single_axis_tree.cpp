@@ -3,7 +3,6 @@
 
 #include <array>
 #include <cmath>
-#include <limits>
 
 namespace mgc::planning {
 
@@ -35,19 +34,15 @@ PlannerStatus SingleAxisTreePlanner::reset(const PlanningProblem& problem) {
   problem_ = &problem;
   random_.reseed(problem.seed);
   iterations_ = 0;
-  nodes_.clear();
-  parents_.clear();
   path_.clear();
   checks_at_reset_ = problem.world->collision_checks();
-  capacity_ = static_cast<std::size_t>(problem.node_capacity > 0 ? problem.node_capacity : problem.max_iterations + 1);
-  nodes_.reserve(capacity_);
-  parents_.reserve(capacity_);
-  scratch_indices_.reserve(capacity_);
-  path_.reserve(capacity_ + static_cast<std::size_t>(problem.model->dof()) + 1);
+  const auto capacity = static_cast<std::size_t>(problem.node_capacity > 0 ? problem.node_capacity : problem.max_iterations + 1);
+  tree_.reset(capacity);
+  path_.reserve(capacity + static_cast<std::size_t>(problem.model->dof()) + 1);
 
   if (!valid(problem.start)) return status_ = PlannerStatus::InvalidStart;
   if (!valid(problem.goal)) return status_ = PlannerStatus::InvalidGoal;
-  if (!add_node(problem.start, -1)) return status_ = PlannerStatus::PoolExhausted;
+  if (!tree_.add(problem.start, -1)) return status_ = PlannerStatus::PoolExhausted;
   status_ = PlannerStatus::Running;
   if (near_goal(problem.start) && finish(0)) status_ = PlannerStatus::Solved;
   return status_;
@@ -58,10 +53,11 @@ PlannerStatus SingleAxisTreePlanner::step(int iteration_budget) noexcept {
   for (int k = 0; k < iteration_budget; ++k) {
     if (iterations_ >= problem_->max_iterations) return status_ = PlannerStatus::IterationLimit;
     ++iterations_;
-    const std::size_t before = nodes_.size();
+    const std::size_t before = tree_.size();
     if (!iterate()) return status_ = PlannerStatus::PoolExhausted;
     // Only a new node can be the first to come within the goal tolerance.
-    if (nodes_.size() > before && near_goal(nodes_.back()) && finish(static_cast<int>(nodes_.size()) - 1)) {
+    const int newest = static_cast<int>(tree_.size()) - 1;
+    if (tree_.size() > before && near_goal(tree_.node(newest)) && finish(newest)) {
       return status_ = PlannerStatus::Solved;
     }
   }
@@ -71,38 +67,19 @@ PlannerStatus SingleAxisTreePlanner::step(int iteration_budget) noexcept {
 PlannerStats SingleAxisTreePlanner::stats() const noexcept {
   PlannerStats s;
   s.iterations = iterations_;
-  s.tree_nodes = static_cast<int>(nodes_.size());
+  s.tree_nodes = static_cast<int>(tree_.size());
   if (problem_) s.collision_checks = problem_->world->collision_checks() - checks_at_reset_;
   return s;
 }
 
 void SingleAxisTreePlanner::tree(std::vector<JointVector>& nodes, std::vector<int>& parents) const {
-  nodes = nodes_;
-  parents = parents_;
+  nodes = tree_.nodes();
+  parents = tree_.parents();
 }
 
 JointVector SingleAxisTreePlanner::sample() noexcept {
   if (random_.uniform() < problem_->goal_bias) return problem_->goal;
-  const MachineModel& model = *problem_->model;
-  JointVector q(model.dof());
-  for (int i = 0; i < model.dof(); ++i) {
-    const JointSpec& j = model.joints()[static_cast<std::size_t>(i)];
-    q[i] = random_.uniform(j.position_min, j.position_max);
-  }
-  return q;
-}
-
-int SingleAxisTreePlanner::nearest(const JointVector& q) const noexcept {
-  int best = -1;
-  double best_d = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < nodes_.size(); ++i) {
-    const double d = metric(nodes_[i], q);
-    if (d < best_d) {
-      best_d = d;
-      best = static_cast<int>(i);
-    }
-  }
-  return best;
+  return uniform_sample(*problem_->model, random_);
 }
 
 JointVector SingleAxisTreePlanner::apply(const JointVector& q, int input) const noexcept {
@@ -145,13 +122,6 @@ int SingleAxisTreePlanner::select_input(const JointVector& from, const JointVect
   return -1;
 }
 
-bool SingleAxisTreePlanner::add_node(const JointVector& q, int parent) noexcept {
-  if (nodes_.size() >= capacity_) return false;
-  nodes_.push_back(q);
-  parents_.push_back(parent);
-  return true;
-}
-
 bool SingleAxisTreePlanner::near_goal(const JointVector& q) const noexcept {
   const JointVector d = problem_->model->difference(q, problem_->goal);
   for (int i = 0; i < problem_->model->dof(); ++i) {
@@ -161,12 +131,8 @@ bool SingleAxisTreePlanner::near_goal(const JointVector& q) const noexcept {
 }
 
 bool SingleAxisTreePlanner::finish(int node) noexcept {
-  scratch_indices_.clear();
-  for (int n = node; n >= 0; n = parents_[static_cast<std::size_t>(n)]) scratch_indices_.push_back(n);
   path_.clear();
-  for (auto it = scratch_indices_.rbegin(); it != scratch_indices_.rend(); ++it) {
-    path_.push_back(nodes_[static_cast<std::size_t>(*it)]);
-  }
+  tree_.append_root_to(node, path_);
   // MSL jumps the last gap in one move; moving the remaining joints one at a time, each move
   // validated at step resolution, keeps every edge single-axis and lands on the exact goal.
   JointVector current = path_.back();
@@ -188,13 +154,13 @@ bool LimConPlanner::iterate() noexcept {
   const JointVector target = sample();
   const int near = nearest(target);
   JointVector next;
-  const int input = select_input(nodes_[static_cast<std::size_t>(near)], target, next);
+  const int input = select_input(tree_.node(near), target, next);
   if (input < 0) return true;
   const JointVector& goal = problem_->goal;
   double d = metric(next, target);
   double d_prev = d;
   JointVector last = next;
-  double d_last_goal = metric(nodes_[static_cast<std::size_t>(near)], goal);
+  double d_last_goal = metric(tree_.node(near), goal);
   double d_goal = metric(next, goal);
   // App. E limits the run by the goal only when its first step approached the goal.
   const bool track = d_goal < d_last_goal;
@@ -219,15 +185,15 @@ bool LimConPlanner::iterate() noexcept {
       d_goal = metric(next, goal);
     }
   }
-  return add_node(last, near);
+  return tree_.add(last, near);
 }
 
 bool GoalBiasedRrtPlanner::iterate() noexcept {
   const JointVector target = sample();
   const int near = nearest(target);
   JointVector next;
-  if (select_input(nodes_[static_cast<std::size_t>(near)], target, next) < 0) return true;
-  return add_node(next, near);
+  if (select_input(tree_.node(near), target, next) < 0) return true;
+  return tree_.add(next, near);
 }
 
 }  // namespace mgc::planning

@@ -3,6 +3,7 @@
 
 #include <vector>
 
+#include "mgc/planning/planners/node_tree.hpp"
 #include "mgc/planning/planners/planner.hpp"
 #include "mgc/planning/random.hpp"
 
@@ -22,13 +23,13 @@ class SingleAxisTreePlanner : public Planner {
   void tree(std::vector<JointVector>& nodes, std::vector<int>& parents) const override;
 
  protected:
-  //! One iteration: sample, extend, add at most one node (add_node). Returns false when the pool
+  //! One iteration: sample, extend, add at most one node to tree_. Returns false when the pool
   //! is full.
   [[nodiscard]] virtual bool iterate() noexcept = 0;
 
   //! Goal with probability goal_bias, else uniform over the joint ranges.
   [[nodiscard]] JointVector sample() noexcept;
-  [[nodiscard]] int nearest(const JointVector& q) const noexcept;
+  [[nodiscard]] int nearest(const JointVector& q) const noexcept { return tree_.nearest(*problem_, q); }
   [[nodiscard]] double metric(const JointVector& a, const JointVector& b) const noexcept {
     return step_metric(*problem_->model, problem_->step, a, b);
   }
@@ -39,13 +40,9 @@ class SingleAxisTreePlanner : public Planner {
   //! when no valid move gets closer than `from` is.
   [[nodiscard]] int select_input(const JointVector& from, const JointVector& target, JointVector& moved) noexcept;
   [[nodiscard]] bool valid(const JointVector& q) noexcept { return problem_->world->validate(q).valid(); }
-  //! Adds a node; false when the pool is full.
-  [[nodiscard]] bool add_node(const JointVector& q, int parent) noexcept;
-
   const PlanningProblem* problem_ = nullptr;
   Random random_;
-  std::vector<JointVector> nodes_;
-  std::vector<int> parents_;
+  NodeTree tree_;
 
  private:
   //! MSL's GapSatisfied: every joint within error_tolerance steps of the goal.
@@ -56,10 +53,8 @@ class SingleAxisTreePlanner : public Planner {
 
   PlannerStatus status_ = PlannerStatus::NotReset;
   int iterations_ = 0;
-  std::size_t capacity_ = 0;
   std::uint64_t checks_at_reset_ = 0;
   std::vector<JointVector> path_;
-  std::vector<int> scratch_indices_;
 };
 
 //! The thesis's RRTBiasedLimCon (App. E): from the node nearest a goal-biased sample, pick the

@@ -1,0 +1,43 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "mgc/planning/planners/problem.hpp"
+#include "mgc/planning/random.hpp"
+
+namespace mgc::planning {
+
+//! A tree of configurations in a pool sized once (reset) and never grown: nodes are addressed by
+//! index, each knows its parent (-1 for the root). Nearest neighbour is a brute-force scan under
+//! the step metric -- the thesis's choice, and exact; trees here hold hundreds to a few thousand
+//! nodes.
+class NodeTree {
+ public:
+  //! Empties the tree and reserves room for `capacity` nodes. May allocate.
+  void reset(std::size_t capacity);
+  //! Adds a node; false (and nothing added) when the pool is full. RT-safe.
+  [[nodiscard]] bool add(const JointVector& q, int parent) noexcept;
+  [[nodiscard]] int nearest(const PlanningProblem& problem, const JointVector& q) const noexcept;
+  //! Appends the configurations from the root down to `node` to `out` (whose capacity the caller
+  //! reserved). RT-safe.
+  void append_root_to(int node, std::vector<JointVector>& out) const noexcept;
+
+  [[nodiscard]] std::size_t size() const noexcept { return nodes_.size(); }
+  [[nodiscard]] std::size_t capacity() const noexcept { return capacity_; }
+  [[nodiscard]] const JointVector& node(int i) const noexcept { return nodes_[static_cast<std::size_t>(i)]; }
+  [[nodiscard]] int parent(int i) const noexcept { return parents_[static_cast<std::size_t>(i)]; }
+  [[nodiscard]] const std::vector<JointVector>& nodes() const noexcept { return nodes_; }
+  [[nodiscard]] const std::vector<int>& parents() const noexcept { return parents_; }
+
+ private:
+  std::vector<JointVector> nodes_;
+  std::vector<int> parents_;
+  std::size_t capacity_ = 0;
+};
+
+//! Uniform over the joint ranges.
+[[nodiscard]] JointVector uniform_sample(const MachineModel& model, Random& random) noexcept;
+
+}  // namespace mgc::planning

@@ -1,0 +1,52 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/planning/planners/node_tree.hpp"
+
+#include <limits>
+
+namespace mgc::planning {
+
+void NodeTree::reset(std::size_t capacity) {
+  nodes_.clear();
+  parents_.clear();
+  nodes_.reserve(capacity);
+  parents_.reserve(capacity);
+  capacity_ = capacity;
+}
+
+bool NodeTree::add(const JointVector& q, int parent) noexcept {
+  if (nodes_.size() >= capacity_) return false;
+  nodes_.push_back(q);
+  parents_.push_back(parent);
+  return true;
+}
+
+int NodeTree::nearest(const PlanningProblem& problem, const JointVector& q) const noexcept {
+  int best = -1;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const double d = step_metric(*problem.model, problem.step, nodes_[i], q);
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+void NodeTree::append_root_to(int node, std::vector<JointVector>& out) const noexcept {
+  const std::size_t first = out.size();
+  for (int n = node; n >= 0; n = parents_[static_cast<std::size_t>(n)]) out.push_back(nodes_[static_cast<std::size_t>(n)]);
+  // Walked leaf to root; turn that stretch round in place.
+  for (std::size_t a = first, b = out.size(); a + 1 < b; ++a, --b) std::swap(out[a], out[b - 1]);
+}
+
+JointVector uniform_sample(const MachineModel& model, Random& random) noexcept {
+  JointVector q(model.dof());
+  for (int i = 0; i < model.dof(); ++i) {
+    const JointSpec& j = model.joints()[static_cast<std::size_t>(i)];
+    q[i] = random.uniform(j.position_min, j.position_max);
+  }
+  return q;
+}
+
+}  // namespace mgc::planning
