@@ -7,7 +7,7 @@
 set -euo pipefail
 source "$(dirname "$0")/lib/common.sh"
 mgc_install_packages
-mgc_build -DMGC_BUILD_TESTS=OFF
+mgc_build mgc-plan
 status=0
 for scenario in "$MGC_ROOT"/scenarios/*.yaml; do
   echo "=== mgc-plan --scenario ${scenario#"$MGC_ROOT"/} --check"

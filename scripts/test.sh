@@ -4,6 +4,6 @@
 set -euo pipefail
 source "$(dirname "$0")/lib/common.sh"
 mgc_install_packages
-mgc_build -DMGC_BUILD_TESTS=ON
+mgc_build
 cd "$MGC_BUILD_DIR"
 ctest --output-on-failure -j "$(nproc)" --timeout 600

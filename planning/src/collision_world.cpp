@@ -351,9 +351,14 @@ Validity CollisionWorld::validate_edge(const JointVector& from, const JointVecto
                                        JointVector* at) noexcept {
   const JointVector delta = model_.difference(from, to);
   int steps = 1;
+  double travel_m = 0.0;
   for (int i = 0; i < model_.dof(); ++i) {
     steps = std::max(steps, static_cast<int>(std::ceil(std::abs(delta[i]) / max_step[i] - 1e-12)));
+    travel_m += model_.displacement_bound(i) * std::abs(delta[i]);
   }
+  // No body point may move more than the dilation between two samples: then every point of the
+  // continuous motion lies within half the dilation of a sampled pose.
+  if (dilation_m_ > 0.0) steps = std::max(steps, static_cast<int>(std::ceil(travel_m / dilation_m_ - 1e-12)));
   for (int k = 1; k <= steps; ++k) {
     const JointVector q = k == steps ? to : model_.interpolate(from, to, static_cast<double>(k) / steps);
     Validity v = validate(q);

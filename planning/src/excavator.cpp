@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/planning/excavator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -71,6 +72,22 @@ Excavator::Excavator(std::string name, std::vector<JointSpec> joints, const Exca
              {"arm", BodyShape::Box, false},           {"bucket", BodyShape::Box, false}};
   key_point_names_ = {"boom_foot", "arm_pin", "bucket_pin", "bucket_tip"};
   self_pairs_ = {{kBucketBody, kUndercarriage}, {kBucketBody, kCab}, {kBucketBody, kHouse}};
+
+  // Farthest body point from each joint's axis: the links beyond it laid out straight, plus the
+  // largest half cross-section; the house and cab corners for the swing.
+  const auto& eg = geometry_;
+  const double half_section = 0.5 * std::max({std::hypot(eg.boom_width_m, eg.boom_depth_m),
+                                              std::hypot(eg.arm_width_m, eg.arm_depth_m),
+                                              std::hypot(eg.bucket_width_m, eg.bucket_depth_m)});
+  const double from_bucket_pin = eg.bucket_length_m + half_section;
+  const double from_arm_pin = eg.arm_length_m + from_bucket_pin;
+  const double from_foot = eg.boom_length_m + from_arm_pin;
+  const auto corner_reach = [](const Eigen::Vector3d& centre, const Eigen::Vector3d& size) {
+    return centre.head<2>().norm() + 0.5 * size.head<2>().norm();
+  };
+  const double swing_reach = std::max({std::abs(eg.boom_foot_forward_m) + from_foot, corner_reach(eg.house_centre_m, eg.house_size_m),
+                                       corner_reach(eg.cab_centre_m, eg.cab_size_m)});
+  displacement_bound_ = {swing_reach, from_foot, from_arm_pin, from_bucket_pin};
 }
 
 void Excavator::forward_kinematics(const JointVector& q, Kinematics& out) const noexcept {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/planning/mobile_crane.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -40,6 +41,18 @@ MobileCrane::MobileCrane(std::string name, std::vector<JointSpec> joints, const 
              {"load", BodyShape::Box, false}};
   key_point_names_ = {"boom_foot", "boom_tip", "hook", "load_bottom"};
   self_pairs_ = {{kLoad, kCarrier}, {kLoad, kSuperstructure}};
+
+  // Farthest body points from each joint's axis. The cable and the load translate with the boom
+  // tip (the cable stays vertical), so luffing moves them no more than the tip.
+  const auto& g = geometry_;
+  const double boom_max = joints_[kBoomLength].position_max;
+  const double boom_half_section = 0.5 * std::hypot(g.boom_width_m, g.boom_depth_m);
+  const double load_half_diagonal = 0.5 * task_.load_size_m.norm();
+  const double superstructure_reach =
+      g.superstructure_centre_m.head<2>().norm() + 0.5 * g.superstructure_size_m.head<2>().norm();
+  const double swing_reach = std::max({superstructure_reach, std::abs(g.boom_foot_forward_m) + boom_max + boom_half_section,
+                                       std::abs(g.boom_foot_forward_m) + boom_max + load_half_diagonal + g.cable_radius_m});
+  displacement_bound_ = {swing_reach, boom_max + boom_half_section, 1.0, 1.0};
 }
 
 void MobileCrane::forward_kinematics(const JointVector& q, Kinematics& out) const noexcept {

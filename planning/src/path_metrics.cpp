@@ -16,7 +16,23 @@ bool is_hoist(const MachineModel& model, int joint) {
          (model.kind() == MachineKind::TowerCrane && name == "hook_height");
 }
 
+double normalized_component(const JointSpec& j, double delta) {
+  return delta / (j.continuous ? 2.0 * std::numbers::pi : j.range());
+}
+
 }  // namespace
+
+double normalized_distance(const MachineModel& model, const JointVector& a, const JointVector& b,
+                           bool include_hoist) noexcept {
+  const JointVector d = model.difference(a, b);
+  double sum = 0.0;
+  for (int i = 0; i < model.dof(); ++i) {
+    if (!include_hoist && is_hoist(model, i)) continue;
+    const double n = normalized_component(model.joints()[static_cast<std::size_t>(i)], d[i]);
+    sum += n * n;
+  }
+  return std::sqrt(sum);
+}
 
 int moving_joint(const MachineModel& model, const JointVector& from, const JointVector& to) noexcept {
   const JointVector d = model.difference(from, to);
@@ -37,22 +53,15 @@ PathMetrics compute_path_metrics(const MachineModel& model, CollisionWorld& worl
   int previous_joint = -1;
   for (std::size_t e = 0; e + 1 < path.size(); ++e) {
     const JointVector d = model.difference(path[e], path[e + 1]);
-    double length_sq = 0.0;
-    double rough_sq = 0.0;
     double sequential = 0.0;
     double simultaneous = 0.0;
     for (int i = 0; i < model.dof(); ++i) {
-      const JointSpec& j = model.joints()[static_cast<std::size_t>(i)];
-      // Seed 000 maps every joint's range to [0, 1]; a full-circle joint spans 2 pi.
-      const double normalized = d[i] / (j.continuous ? 2.0 * std::numbers::pi : j.range());
-      length_sq += normalized * normalized;
-      if (!is_hoist(model, i)) rough_sq += normalized * normalized;
-      const double t = std::abs(d[i]) / j.max_velocity;
+      const double t = std::abs(d[i]) / model.joints()[static_cast<std::size_t>(i)].max_velocity;
       sequential += t;
       simultaneous = std::max(simultaneous, t);
     }
-    m.length_normalized += std::sqrt(length_sq);
-    m.roughness += std::sqrt(rough_sq);
+    m.length_normalized += normalized_distance(model, path[e], path[e + 1], true);
+    m.roughness += normalized_distance(model, path[e], path[e + 1], false);
     m.exec_time_sequential_s += sequential;
     m.exec_time_simultaneous_s += simultaneous;
     const int joint = moving_joint(model, path[e], path[e + 1]);

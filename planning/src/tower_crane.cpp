@@ -101,6 +101,14 @@ TowerCrane::TowerCrane(std::string name, std::vector<JointSpec> joints, const To
              {"load", BodyShape::Box, false}};
   key_point_names_ = {"trolley", "hook", "load_bottom", "jib_tip"};
   self_pairs_ = {{kLoad, kMast}};
+
+  // Slewing: the farthest body point from the mast axis is at the jib tip or under the trolley's
+  // farthest position (the load's corners). Trolley and hoist move points one for one.
+  const auto& tg = geometry_;
+  const double jib_reach = std::hypot(tg.jib_length_m, 0.5 * tg.jib_width_m);
+  const double load_reach = joints_[kTrolleyRadius].position_max + 0.5 * task_.load_size_m.norm() + tg.cable_radius_m;
+  const double counter_reach = std::hypot(tg.counter_jib_length_m, 0.5 * tg.counterweight_size_m.y());
+  displacement_bound_ = {std::max({jib_reach, load_reach, counter_reach, 0.5 * std::sqrt(2.0) * tg.mast_width_m}), 1.0, 1.0};
 }
 
 void TowerCrane::forward_kinematics(const JointVector& q, Kinematics& out) const noexcept {

@@ -28,8 +28,10 @@ mgc_install_packages() {
   DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
-# mgc_build [extra cmake args...]
+# mgc_build [target...]: configures build/ (tests included) and builds the targets, or all.
 mgc_build() {
-  cmake -S "$MGC_ROOT" -B "$MGC_BUILD_DIR" -DCMAKE_BUILD_TYPE="${MGC_BUILD_TYPE:-RelWithDebInfo}" "$@"
-  cmake --build "$MGC_BUILD_DIR" -j "$(nproc)"
+  cmake -S "$MGC_ROOT" -B "$MGC_BUILD_DIR" -DCMAKE_BUILD_TYPE="${MGC_BUILD_TYPE:-RelWithDebInfo}" -DMGC_BUILD_TESTS=ON
+  local targets=()
+  [ $# -gt 0 ] && targets=(--target "$@")
+  cmake --build "$MGC_BUILD_DIR" -j "$(nproc)" "${targets[@]}"
 }

@@ -73,7 +73,7 @@ TEST_CASE("collision queries and dynamic moves do not allocate after finalize", 
 }
 
 TEST_CASE("planner step() does not allocate after reset", "[unit]") {
-  for (const char* planner_name : {"limcon", "rrt"}) {
+  for (const char* planner_name : {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod"}) {
     for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
       CAPTURE(planner_name, name);
       auto loaded = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + name));

@@ -3,6 +3,7 @@
 
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
+#include "mgc/planning/planners/bidirectional.hpp"
 #include "mgc/planning/planners/planner.hpp"
 #include "test_support.hpp"
 
@@ -38,10 +39,16 @@ PlannerStatus run(Planner& planner, const PlanningProblem& problem, int budget =
   return status;
 }
 
-// An independent check of a returned path: a fresh world (not the planner's), every edge at a
-// quarter of the planner's step, exact start and goal.
+// An independent check of a returned path: a fresh world (not the planner's) whose machine keeps
+// half the planner's dilation -- the clearance validate_edge guarantees along the continuous
+// motion -- every edge at a quarter of the planner's step, exact start and goal.
 void dense_recheck(const std::string& scenario, const std::vector<JointVector>& path) {
-  auto fresh = io::load_and_build(mgc::test::source_path("scenarios/" + scenario));
+  Scenario s = io::load_scenario(mgc::test::source_path("scenarios/" + scenario));
+  s.planner.dilation_m *= 0.5;
+  io::LoadedScenario fresh;
+  fresh.model = build_model(s);
+  fresh.world = build_world(s, *fresh.model);
+  fresh.scenario = std::move(s);
   const JointVector fine = step_sizes(*fresh.model, 4 * fresh.scenario.planner.space_resolution);
   REQUIRE(path.size() >= 2);
   CHECK(path.front() == fresh.scenario.start);
@@ -89,8 +96,47 @@ TEST_CASE("rrt (goal-biased, single step) solves every shipped scenario, densely
   }
 }
 
+TEST_CASE("bidirectional planners solve every shipped scenario, densely valid", "[planner]") {
+  for (const char* name : {"rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod"}) {
+    for (const char* scenario : kScenarios) {
+      for (std::uint64_t seed = 0; seed < 3; ++seed) {
+        CAPTURE(name, scenario, seed);
+        Fixture f(scenario, seed);
+        f.problem.max_iterations = 5000;
+        auto planner = make_planner(name);
+        REQUIRE(planner->name() == name);
+        REQUIRE(run(*planner, f.problem) == PlannerStatus::Solved);
+        dense_recheck(scenario, planner->path());
+      }
+    }
+  }
+}
+
+TEST_CASE("con-con-mod with a threshold nothing fails is rrt-connect, path for path", "[planner]") {
+  // Seed 000 §3.4: for a large gamma the first candidate always passes Eq. 6, the random stream
+  // is RRT-Con-Con's, and so are the paths.
+  for (std::uint64_t seed = 0; seed < 5; ++seed) {
+    CAPTURE(seed);
+    Fixture f("excavator-pipelines.yaml", seed);
+    f.problem.max_iterations = 5000;
+    BidirectionalPlanner concon(BidirectionalPlanner::Variant::ConCon);
+    BidirectionalPlanner mod(BidirectionalPlanner::Variant::ConConMod, 1e9);
+    REQUIRE(run(concon, f.problem) == PlannerStatus::Solved);
+    REQUIRE(run(mod, f.problem) == PlannerStatus::Solved);
+    CHECK(concon.path() == mod.path());
+    // A tight threshold changes the samples, and with them the tree.
+    BidirectionalPlanner tight(BidirectionalPlanner::Variant::ConConMod, 1.05);
+    REQUIRE(run(tight, f.problem) == PlannerStatus::Solved);
+    std::vector<JointVector> nodes_a, nodes_b;
+    std::vector<int> parents_a, parents_b;
+    concon.tree(nodes_a, parents_a);
+    tight.tree(nodes_b, parents_b);
+    CHECK(nodes_a != nodes_b);
+  }
+}
+
 TEST_CASE("same seed, same path, bit for bit; slicing does not change it", "[planner]") {
-  for (const char* name : {"limcon", "rrt"}) {
+  for (const char* name : {"limcon", "rrt", "rrt-connect", "rrt-ext-ext", "con-con-mod"}) {
     CAPTURE(name);
     Fixture a("thesis-steel-frame.yaml", 7);
     Fixture b("thesis-steel-frame.yaml", 7);
@@ -149,6 +195,17 @@ TEST_CASE("planner errors: invalid start or goal, exhausted pool, iteration limi
     CHECK(planner->stats().iterations == 2);
   }
   SECTION("step before reset") { CHECK(planner->step(10) == PlannerStatus::NotReset); }
+  SECTION("bidirectional pool") {
+    auto connect = make_planner("rrt-connect");
+    f.problem.node_capacity = 4;
+    CHECK(run(*connect, f.problem) == PlannerStatus::PoolExhausted);
+    CHECK(connect->stats().tree_nodes <= 8);
+  }
+  SECTION("bidirectional invalid goal") {
+    auto connect = make_planner("con-con-mod");
+    f.problem.goal[0] = 10 * kDeg;
+    CHECK(connect->reset(f.problem) == PlannerStatus::InvalidGoal);
+  }
   CHECK(make_planner("rrt-star-please") == nullptr);
 }
 

@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/random.hpp"
 #include "test_support.hpp"
 
 using namespace mgc::planning;
@@ -138,4 +139,43 @@ TEST_CASE("tower variant: crane 2's jib crosses the west route after it slews", 
   Contact contact;
   REQUIRE_FALSE(late->is_free(west, &contact));
   CHECK(late->dynamic_name(contact.other) == "tower-crane-2");
+}
+
+TEST_CASE("displacement bounds hold for every body corner of every model", "[oracle]") {
+  for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
+    CAPTURE(name);
+    auto loaded = load(name);
+    const MachineModel& model = *loaded.model;
+    Random random(11);
+    Kinematics a;
+    Kinematics b;
+    double tightest = 0.0;
+    for (int n = 0; n < 2000; ++n) {
+      JointVector q(model.dof());
+      for (int j = 0; j < model.dof(); ++j) {
+        const JointSpec& s = model.joints()[static_cast<std::size_t>(j)];
+        q[j] = random.uniform(s.position_min, s.position_max);
+      }
+      const int joint = n % model.dof();
+      const double delta = 1e-4;
+      JointVector moved = q;
+      moved[joint] += delta;
+      model.forward_kinematics(q, a);
+      model.forward_kinematics(moved, b);
+      for (std::size_t body = 0; body < model.bodies().size(); ++body) {
+        // The corners of each body's bounding box (a capsule's too), before and after.
+        for (int c = 0; c < 8; ++c) {
+          const Eigen::Vector3d corner((c & 1 ? 0.5 : -0.5), (c & 2 ? 0.5 : -0.5), (c & 4 ? 0.5 : -0.5));
+          const Eigen::Vector3d pa = a.bodies[body].world_from_body * corner.cwiseProduct(a.bodies[body].size_m);
+          const Eigen::Vector3d pb = b.bodies[body].world_from_body * corner.cwiseProduct(b.bodies[body].size_m);
+          const double ratio = (pb - pa).norm() / (model.displacement_bound(joint) * delta);
+          CAPTURE(joint, body, ratio);
+          REQUIRE(ratio <= 1.0 + 1e-6);
+          tightest = std::max(tightest, ratio);
+        }
+      }
+    }
+    // The bounds are not loose by orders of magnitude either.
+    CHECK(tightest > 0.5);
+  }
 }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/planning/planners/planner.hpp"
+#include "mgc/planning/planners/bidirectional.hpp"
 #include "mgc/planning/planners/single_axis_tree.hpp"
 
 namespace mgc::planning {
@@ -7,9 +8,14 @@ namespace mgc::planning {
 std::unique_ptr<Planner> make_planner(std::string_view name) {
   if (name == "limcon") return std::make_unique<LimConPlanner>();
   if (name == "rrt") return std::make_unique<GoalBiasedRrtPlanner>();
+  using Variant = BidirectionalPlanner::Variant;
+  if (name == "rrt-connect") return std::make_unique<BidirectionalPlanner>(Variant::ConCon);
+  if (name == "rrt-ext-con") return std::make_unique<BidirectionalPlanner>(Variant::ExtCon);
+  if (name == "rrt-ext-ext") return std::make_unique<BidirectionalPlanner>(Variant::ExtExt);
+  if (name == "con-con-mod") return std::make_unique<BidirectionalPlanner>(Variant::ConConMod);
   return nullptr;
 }
 
-std::vector<std::string_view> planner_names() { return {"limcon", "rrt"}; }
+std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod"}; }
 
 }  // namespace mgc::planning

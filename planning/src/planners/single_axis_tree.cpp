@@ -114,7 +114,7 @@ int SingleAxisTreePlanner::select_input(const JointVector& from, const JointVect
     const int u = order[static_cast<std::size_t>(k)];
     if (!(distance[static_cast<std::size_t>(u)] < from_distance)) break;
     JointVector candidate = apply(from, u);
-    if (valid(candidate)) {
+    if (valid_step(from, candidate)) {
       moved = candidate;
       return u;
     }
@@ -174,7 +174,7 @@ bool LimConPlanner::iterate() noexcept {
                                 problem_->step[input / 2];
   const int max_run = static_cast<int>(std::ceil(steps_in_range)) + 2;
   bool first = true;
-  for (int run = 0; run < max_run && d <= d_prev && d_goal < d_last_goal && (first || valid(next)); ++run) {
+  for (int run = 0; run < max_run && d <= d_prev && d_goal < d_last_goal && (first || valid_step(last, next)); ++run) {
     first = false;
     last = next;
     d_prev = d;

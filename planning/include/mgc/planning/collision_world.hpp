@@ -74,9 +74,13 @@ class CollisionWorld {
   [[nodiscard]] bool is_free(const JointVector& q, Contact* contact = nullptr) noexcept;
   //! Joint ranges, constraints, then collision.
   [[nodiscard]] Validity validate(const JointVector& q) noexcept;
-  //! Validates the straight joint-space edge from -> to at every step, excluding `from` itself:
-  //! n = max_i ceil(|to_i - from_i| / max_step_i) steps (continuous joints the short way round).
-  //! On failure, `at` (if given) receives the first invalid configuration.
+  //! Validates the straight joint-space edge from -> to at n evenly spaced configurations after
+  //! `from` (continuous joints the short way round). n is the larger of max_i ceil(|d_i| /
+  //! max_step_i) and the number of samples that keeps every body point from moving more than the
+  //! dilation between two of them (MachineModel::displacement_bound). So when the edge is valid,
+  //! the machine's real bodies keep at least half the dilation from every obstacle along the whole
+  //! continuous motion, not only at the samples. On failure, `at` (if given) receives the first
+  //! invalid configuration.
   [[nodiscard]] Validity validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
                                        JointVector* at = nullptr) noexcept;
   //! Distance from the dilated machine to the nearest static or dynamic obstacle.

@@ -88,6 +88,13 @@ class MachineModel {
   //! First joint outside its range, or -1. Continuous joints accept any finite value.
   [[nodiscard]] int joint_out_of_range(const JointVector& q) const noexcept;
 
+  //! Upper bound on how far any point of any body moves per unit of motion of `joint`, the
+  //! others held: m per rad for a revolute joint (the farthest body point from its axis), m per m
+  //! for a prismatic one. Edge checks use it to bound how far the machine moves between samples.
+  [[nodiscard]] double displacement_bound(int joint) const noexcept {
+    return displacement_bound_[static_cast<std::size_t>(joint)];
+  }
+
   //! to - from per joint; continuous joints take the shorter way round. [rad | m]
   [[nodiscard]] JointVector difference(const JointVector& from, const JointVector& to) const noexcept;
   //! from + t (to - from) along difference(); continuous joints are re-wrapped into [-pi, pi).
@@ -102,6 +109,7 @@ class MachineModel {
   std::vector<BodySpec> bodies_;
   std::vector<std::string> key_point_names_;
   std::vector<SelfPair> self_pairs_;
+  std::vector<double> displacement_bound_;  //!< per joint, set by each model [m/rad | m/m]
   Eigen::Isometry3d world_from_base_ = Eigen::Isometry3d::Identity();
 };
 

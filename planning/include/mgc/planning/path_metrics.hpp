@@ -21,6 +21,12 @@ struct PathMetrics {
   double min_clearance_m = 0.0;           //!< smallest clearance at the path's check resolution [m]
 };
 
+//! Seed 000's Eq. 2 between two configurations: Euclidean with each joint scaled to [0, 1] by
+//! its range (a continuous joint's range is a full turn, taken the short way round), with or
+//! without the hoist joint (seed 000 leaves it out of roughness). [-]
+[[nodiscard]] double normalized_distance(const MachineModel& model, const JointVector& a, const JointVector& b,
+                                         bool include_hoist) noexcept;
+
 //! The joint an edge moves: its index, -1 when none moves, -2 when several do.
 [[nodiscard]] int moving_joint(const MachineModel& model, const JointVector& from, const JointVector& to) noexcept;
 

@@ -21,7 +21,8 @@ struct PlanningProblem {
   double error_tolerance = 1.0;
   double goal_bias = 0.1;          //!< probability of sampling the goal
   int max_iterations = 1000;       //!< iteration cap (the thesis's Max_Nodes)
-  int node_capacity = 0;           //!< node pool size; 0: max_iterations + 1 (one node per iteration)
+  int node_capacity = 0;           //!< node pool size per tree; 0: the planner's default
+  double extend_steps = 5.0;       //!< straight-line planners: the Extend step epsilon, in steps
   std::uint64_t seed = 0;
 };
 

@@ -40,6 +40,10 @@ class SingleAxisTreePlanner : public Planner {
   //! when no valid move gets closer than `from` is.
   [[nodiscard]] int select_input(const JointVector& from, const JointVector& target, JointVector& moved) noexcept;
   [[nodiscard]] bool valid(const JointVector& q) noexcept { return problem_->world->validate(q).valid(); }
+  //! The one-step edge from -> to, checked as every edge is (CollisionWorld::validate_edge).
+  [[nodiscard]] bool valid_step(const JointVector& from, const JointVector& to) noexcept {
+    return problem_->world->validate_edge(from, to, problem_->step).valid();
+  }
   const PlanningProblem* problem_ = nullptr;
   Random random_;
   NodeTree tree_;
