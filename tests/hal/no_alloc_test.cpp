@@ -1,0 +1,81 @@
+// SPDX-License-Identifier: Apache-2.0
+// send() and receive() run every control cycle, so after warm-up they must not touch the heap.
+// Global operator new is replaced to count allocations.
+#include <catch2/catch.hpp>
+
+#include <array>
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <string>
+
+#include "mgc/hal/bus_plan.hpp"
+#include "mgc/hal/can_bus.hpp"
+#include "mgc/hal/canopen.hpp"
+#include "mgc/hal/device_pdos.hpp"
+#include "transport_support.hpp"
+
+namespace {
+std::atomic<long> g_allocations{0};
+}
+
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) { return operator new(size); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace mgc::hal;
+
+TEST_CASE("send, receive and the codec do not allocate after warm-up", "[unit][transport]") {
+  const std::string kind = GENERATE(as<std::string>{}, "loop", "udp");
+  CAPTURE(kind);
+  ManualClock clock;
+  auto bus = mgc::test::open_pair(kind, clock);
+  const BusPlan plan = excavator_bus_plan();
+  std::array<TimedFrame, 16> buf{};
+  CodecCounters codec;
+
+  // One controller-like cycle: SYNC and a valve command out, encoder PDOs back, all decoded.
+  const auto cycle = [&](int i) {
+    long received = 0;
+    const auto sync = canopen::encode_sync({static_cast<std::uint8_t>(1 + i % 240)});
+    const auto command = pdo::encode_valve_command({kValveNodeId, 0, {{static_cast<std::int16_t>(i % 100), 0, 0, 0}}});
+    if (bus.a->send(sync.value) != Status::Ok || bus.a->send(command.value) != Status::Ok) return -1L;
+    for (std::uint8_t j = 0; j < plan.num_joints; ++j) {
+      const auto pos = pdo::encode_encoder_position({plan.encoders[j].node_id, i * 10, 0});
+      if (bus.b->send(pos.value) != Status::Ok) return -1L;
+    }
+    for (int attempt = 0; attempt < 100 && received < 4; ++attempt) {
+      const ReceiveResult r = bus.a->receive(buf);
+      for (std::size_t k = 0; k < r.count; ++k) {
+        const Classified c = classify(buf[k].frame, plan);
+        codec.record(c.kind == MessageKind::EncoderPosition ? pdo::decode_encoder_position(buf[k].frame).status
+                                                            : Status::UnknownId);
+      }
+      received += static_cast<long>(r.count);
+      if (r.count == 0) (void)bus.a->wait_readable(5'000);
+    }
+    const ReceiveResult rb = bus.b->receive(buf);
+    for (std::size_t k = 0; k < rb.count; ++k) {
+      if (buf[k].frame.can_id == canopen::kSyncCobId) codec.record(canopen::decode_sync(buf[k].frame).status);
+    }
+    clock.advance_us(10'000);
+    return received;
+  };
+
+  for (int i = 0; i < 50; ++i) REQUIRE(cycle(i) == 4);
+  const long before = g_allocations.load();
+  long received = 0;
+  for (int i = 0; i < 2'000; ++i) received += cycle(i);
+  const long allocations = g_allocations.load() - before;
+  CHECK(received == 4 * 2'000);
+  CHECK(allocations == 0);
+  CHECK(codec.malformed() == 0);
+  CHECK(codec.decoded > 8'000);
+}
