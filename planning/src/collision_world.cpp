@@ -354,7 +354,7 @@ Validity CollisionWorld::validate_edge(const JointVector& from, const JointVecto
   double travel_m = 0.0;
   for (int i = 0; i < model_.dof(); ++i) {
     steps = std::max(steps, static_cast<int>(std::ceil(std::abs(delta[i]) / max_step[i] - 1e-12)));
-    travel_m += model_.displacement_bound(i) * std::abs(delta[i]);
+    travel_m += model_.edge_displacement_bound(from, to, i) * std::abs(delta[i]);
   }
   // No body point may move more than the dilation between two samples: then every point of the
   // continuous motion lies within half the dilation of a sampled pose.

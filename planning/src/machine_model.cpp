@@ -70,6 +70,11 @@ int MachineModel::key_point_index(std::string_view name) const noexcept {
 
 ConstraintVerdict MachineModel::check_constraints(const JointVector& /*q*/) const noexcept { return {}; }
 
+double MachineModel::edge_displacement_bound(const JointVector& /*from*/, const JointVector& /*to*/,
+                                             int joint) const noexcept {
+  return displacement_bound(joint);
+}
+
 int MachineModel::joint_out_of_range(const JointVector& q) const noexcept {
   for (int i = 0; i < dof(); ++i) {
     if (!joints_[static_cast<std::size_t>(i)].contains(q[i])) return i;

@@ -50,9 +50,24 @@ MobileCrane::MobileCrane(std::string name, std::vector<JointSpec> joints, const 
   const double load_half_diagonal = 0.5 * task_.load_size_m.norm();
   const double superstructure_reach =
       g.superstructure_centre_m.head<2>().norm() + 0.5 * g.superstructure_size_m.head<2>().norm();
-  const double swing_reach = std::max({superstructure_reach, std::abs(g.boom_foot_forward_m) + boom_max + boom_half_section,
-                                       std::abs(g.boom_foot_forward_m) + boom_max + load_half_diagonal + g.cable_radius_m});
+  superstructure_reach_m_ = superstructure_reach;
+  boom_margin_m_ = std::max(boom_half_section, load_half_diagonal + g.cable_radius_m);
+  const double swing_reach = std::max(superstructure_reach, std::abs(g.boom_foot_forward_m) + boom_max + boom_margin_m_);
   displacement_bound_ = {swing_reach, boom_max + boom_half_section, 1.0, 1.0};
+}
+
+double MobileCrane::edge_displacement_bound(const JointVector& from, const JointVector& to, int joint) const noexcept {
+  const double boom_m = std::max(from[kBoomLength], to[kBoomLength]);
+  switch (joint) {
+    case kSwing: {
+      // cos falls over [0, 90 deg], so the lower elevation of the two ends reaches furthest out.
+      const double elevation = std::clamp(std::min(from[kBoomElevation], to[kBoomElevation]), 0.0, 0.5 * std::numbers::pi);
+      return std::max(superstructure_reach_m_,
+                      std::abs(geometry_.boom_foot_forward_m) + boom_m * std::cos(elevation) + boom_margin_m_);
+    }
+    case kBoomElevation: return boom_m + 0.5 * std::hypot(geometry_.boom_width_m, geometry_.boom_depth_m);
+    default: return 1.0;
+  }
 }
 
 void MobileCrane::forward_kinematics(const JointVector& q, Kinematics& out) const noexcept {

@@ -150,13 +150,20 @@ TEST_CASE("displacement bounds hold for every body corner of every model", "[ora
     Kinematics a;
     Kinematics b;
     double tightest = 0.0;
-    for (int n = 0; n < 2000; ++n) {
-      JointVector q(model.dof());
+    for (int n = 0; n < 4000; ++n) {
+      // A point q on a random edge; the bound for that edge must hold at q.
+      JointVector from(model.dof());
+      JointVector to(model.dof());
       for (int j = 0; j < model.dof(); ++j) {
         const JointSpec& s = model.joints()[static_cast<std::size_t>(j)];
-        q[j] = random.uniform(s.position_min, s.position_max);
+        from[j] = random.uniform(s.position_min, s.position_max);
+        to[j] = random.uniform(s.position_min, s.position_max);
       }
+      if (n % 2 == 0) to = from;  // half the edges are single points: the bound at q itself
+      const JointVector q = model.interpolate(from, to, random.uniform());
       const int joint = n % model.dof();
+      const double bound = model.edge_displacement_bound(from, to, joint);
+      REQUIRE(bound <= model.displacement_bound(joint) + 1e-12);
       const double delta = 1e-4;
       JointVector moved = q;
       moved[joint] += delta;
@@ -168,7 +175,7 @@ TEST_CASE("displacement bounds hold for every body corner of every model", "[ora
           const Eigen::Vector3d corner((c & 1 ? 0.5 : -0.5), (c & 2 ? 0.5 : -0.5), (c & 4 ? 0.5 : -0.5));
           const Eigen::Vector3d pa = a.bodies[body].world_from_body * corner.cwiseProduct(a.bodies[body].size_m);
           const Eigen::Vector3d pb = b.bodies[body].world_from_body * corner.cwiseProduct(b.bodies[body].size_m);
-          const double ratio = (pb - pa).norm() / (model.displacement_bound(joint) * delta);
+          const double ratio = (pb - pa).norm() / (bound * delta);
           CAPTURE(joint, body, ratio);
           REQUIRE(ratio <= 1.0 + 1e-6);
           tightest = std::max(tightest, ratio);

@@ -89,11 +89,15 @@ class MachineModel {
   [[nodiscard]] int joint_out_of_range(const JointVector& q) const noexcept;
 
   //! Upper bound on how far any point of any body moves per unit of motion of `joint`, the
-  //! others held: m per rad for a revolute joint (the farthest body point from its axis), m per m
-  //! for a prismatic one. Edge checks use it to bound how far the machine moves between samples.
+  //! others held, anywhere in the joint ranges: m per rad for a revolute joint (the farthest body
+  //! point from its axis), m per m for a prismatic one.
   [[nodiscard]] double displacement_bound(int joint) const noexcept {
     return displacement_bound_[static_cast<std::size_t>(joint)];
   }
+  //! The same bound, valid only along the straight edge from -> to and so possibly tighter. Edge
+  //! checks use it to bound how far the machine moves between samples. Default: the global one.
+  [[nodiscard]] virtual double edge_displacement_bound(const JointVector& from, const JointVector& to,
+                                                       int joint) const noexcept;
 
   //! to - from per joint; continuous joints take the shorter way round. [rad | m]
   [[nodiscard]] JointVector difference(const JointVector& from, const JointVector& to) const noexcept;

@@ -62,6 +62,11 @@ class MobileCrane final : public MachineModel {
   [[nodiscard]] MachineKind kind() const noexcept override { return MachineKind::MobileCrane; }
   void forward_kinematics(const JointVector& q, Kinematics& out) const noexcept override;
   [[nodiscard]] ConstraintVerdict check_constraints(const JointVector& q) const noexcept override;
+  //! Along a straight edge the boom length and elevation move linearly, so the boom reaches at
+  //! most (longer end) x cos(lower end's elevation) from the swing axis, and the luffing radius is
+  //! at most the longer end's boom.
+  [[nodiscard]] double edge_displacement_bound(const JointVector& from, const JointVector& to,
+                                               int joint) const noexcept override;
 
   [[nodiscard]] const MobileCraneGeometry& geometry() const noexcept { return geometry_; }
   [[nodiscard]] const LiftTask& task() const noexcept { return task_; }
@@ -76,6 +81,9 @@ class MobileCrane final : public MachineModel {
   std::optional<LuffRangeTable> luff_table_;
   LiftTask task_;
   std::optional<LoadChartRule> rule_;
+  double superstructure_reach_m_ = 0.0;  //!< farthest superstructure corner from the swing axis [m]
+  //! Farthest body point beyond the boom tip's radius: the load's corners or the boom box's. [m]
+  double boom_margin_m_ = 0.0;
 };
 
 }  // namespace mgc::planning
