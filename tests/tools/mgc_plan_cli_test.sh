@@ -53,7 +53,7 @@ expect_bad "planning from an infeasible goal" "^$tmp/goal-in-frame.yaml:[0-9]+: 
 code=$?
 [ "$code" -eq 0 ] || fail "limcon: exit $code: $(cat "$tmp/err")"
 for key in success planner seed joint_names joint_units path planning_time_ms iterations tree_nodes path_nodes \
-           dof_switches exec_time_sequential_s exec_time_simultaneous_s min_clearance_m; do
+           dof_switches exec_time_sequential_s exec_time_simultaneous_s min_clearance_m raw_path_nodes smoothed; do
   grep -q "\"$key\":" "$tmp/plan.json" || fail "plan JSON lacks key $key"
 done
 grep -q '"success":true' "$tmp/plan.json" || fail "plan JSON does not say success"

@@ -21,6 +21,7 @@
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
 #include "mgc/planning/planners/planner.hpp"
+#include "mgc/planning/smoothing.hpp"
 
 namespace {
 
@@ -96,6 +97,7 @@ struct PlanOptions {
   std::optional<int> max_iterations;
   double time_limit_s = 60.0;
   std::string json;
+  bool smooth = true;
 };
 
 // File units: degrees for revolute joints, metres for prismatic ones.
@@ -146,8 +148,19 @@ int run_plan(const PlanOptions& options) {
   const double planning_time_ms = 1000.0 * elapsed_s();
   const PlannerStats stats = planner->stats();
   const bool success = status == PlannerStatus::Solved;
-  const std::vector<JointVector> empty;
-  const auto& path = success ? planner->path() : empty;
+  std::vector<JointVector> path;
+  if (success) path = planner->path();
+  const int raw_path_nodes = static_cast<int>(path.size());
+  double smoothing_time_ms = 0.0;
+  if (success && options.smooth) {
+    // One joint at a time stays the rule for paths that follow it.
+    SmoothingOptions smoothing;
+    smoothing.single_axis = compute_path_metrics(*loaded.model, *loaded.world, path, problem.step).multi_joint_edges == 0;
+    smoothing.seed = problem.seed;
+    const auto t_smooth = std::chrono::steady_clock::now();
+    path = smooth_path(*loaded.world, path, problem.step, smoothing);
+    smoothing_time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_smooth).count();
+  }
   const PathMetrics metrics = compute_path_metrics(*loaded.model, *loaded.world, path, problem.step);
   const std::string status_text = timed_out ? "time limit reached" : to_string(status);
 
@@ -155,7 +168,7 @@ int run_plan(const PlanOptions& options) {
               static_cast<unsigned long long>(problem.seed), status_text.c_str(), planning_time_ms, stats.iterations,
               stats.tree_nodes);
   if (success) {
-    std::printf(", %d path nodes, %d DoF switches, %.1f s one joint at a time, clearance %.2f m", metrics.path_nodes,
+    std::printf(", %d path nodes (%d raw), %d DoF switches, %.1f s one joint at a time, clearance %.2f m", metrics.path_nodes, raw_path_nodes,
                 metrics.dof_switches, metrics.exec_time_sequential_s, metrics.min_clearance_m);
   }
   std::printf("\n");
@@ -195,6 +208,9 @@ int run_plan(const PlanOptions& options) {
     j.key("tree_nodes").value(stats.tree_nodes);
     j.key("collision_checks").value(stats.collision_checks);
     j.key("path_nodes").value(metrics.path_nodes);
+    j.key("raw_path_nodes").value(raw_path_nodes);
+    j.key("smoothed").value(success && options.smooth);
+    j.key("smoothing_time_ms").value(smoothing_time_ms);
     j.key("dof_switches").value(metrics.dof_switches);
     j.key("multi_joint_edges").value(metrics.multi_joint_edges);
     j.key("length_normalized").value(metrics.length_normalized);
@@ -233,6 +249,8 @@ int main(int argc, char** argv) {
       app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(CLI::PositiveNumber);
   app.add_option("--time-limit", options.time_limit_s, "wall-clock limit on planning [s] (default 60)")->check(CLI::PositiveNumber);
   app.add_option("--json", options.json, "write the plan and its metrics here (docs/plan-json.md)");
+  bool no_smooth = false;
+  app.add_flag("--no-smooth", no_smooth, "keep the planner's raw path (default: shortcut-smoothed)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -241,6 +259,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (*seed_option) options.seed = seed;
+  options.smooth = !no_smooth;
   if (*iterations_option) options.max_iterations = max_iterations;
   if (check == (planner_option->count() > 0)) {
     std::fprintf(stderr, "mgc-plan: give either --check or --planner NAME (see --help)\n");
