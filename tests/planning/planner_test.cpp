@@ -4,6 +4,8 @@
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
 #include "mgc/planning/planners/bidirectional.hpp"
+#include "mgc/planning/planners/nonuniform.hpp"
+#include "mgc/planning/excavator.hpp"
 #include "mgc/planning/smoothing.hpp"
 #include "mgc/planning/planners/planner.hpp"
 #include "test_support.hpp"
@@ -275,4 +277,39 @@ TEST_CASE("smoothing shortens paths, keeps them valid, and keeps one joint per e
   REQUIRE(run(*rrt, f.problem) == PlannerStatus::Solved);
   const auto smoothed = smooth_path(*f.loaded.world, rrt->path(), f.problem.step, SmoothingOptions{});
   CHECK(smoothed.size() * 4 <= rrt->path().size());
+}
+
+TEST_CASE("nonuniform: Beta samples have their mean on the goal (note 003's corrected rule)", "[unit]") {
+  Random random(1);
+  for (const double mean : {0.05, 0.2, 0.5, 0.7, 0.95}) {
+    CAPTURE(mean);
+    double sum = 0.0;
+    constexpr int kDraws = 200000;
+    for (int i = 0; i < kDraws; ++i) {
+      const double x = NonUniformRrtPlanner::beta_sample(mean, random.uniform());
+      REQUIRE(x >= 0.0);
+      REQUIRE(x <= 1.0);
+      sum += x;
+    }
+    CHECK(sum / kDraws == Approx(mean).margin(0.005));
+  }
+}
+
+TEST_CASE("nonuniform: solves the pipelines scenario holding the bucket's ground angle", "[planner]") {
+  for (std::uint64_t seed = 0; seed < 5; ++seed) {
+    CAPTURE(seed);
+    Fixture f("excavator-pipelines.yaml", seed);
+    NonUniformRrtPlanner planner;
+    REQUIRE(run(planner, f.problem) == PlannerStatus::Solved);
+    CHECK(planner.holds_bucket());
+    dense_recheck("excavator-pipelines.yaml", planner.path());
+    // Every node keeps psi = -180 deg; psi is linear in the joints, so every edge does too.
+    for (const JointVector& q : planner.path()) CHECK(bucket_ground_angle_rad(q) == Approx(-180 * kDeg).margin(1e-9));
+  }
+  // Without the hold (different ground angles at start and goal) all four joints are sampled.
+  Fixture f("excavator-pipelines.yaml", 0);
+  f.problem.goal[Excavator::kBucket] += 10 * kDeg;
+  NonUniformRrtPlanner planner;
+  REQUIRE(run(planner, f.problem) == PlannerStatus::Solved);
+  CHECK_FALSE(planner.holds_bucket());
 }

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/planning/planners/planner.hpp"
 #include "mgc/planning/planners/bidirectional.hpp"
+#include "mgc/planning/planners/nonuniform.hpp"
 #include "mgc/planning/planners/single_axis_tree.hpp"
 
 namespace mgc::planning {
@@ -13,9 +14,10 @@ std::unique_ptr<Planner> make_planner(std::string_view name) {
   if (name == "rrt-ext-con") return std::make_unique<BidirectionalPlanner>(Variant::ExtCon);
   if (name == "rrt-ext-ext") return std::make_unique<BidirectionalPlanner>(Variant::ExtExt);
   if (name == "con-con-mod") return std::make_unique<BidirectionalPlanner>(Variant::ConConMod);
+  if (name == "nonuniform") return std::make_unique<NonUniformRrtPlanner>();
   return nullptr;
 }
 
-std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod"}; }
+std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform"}; }
 
 }  // namespace mgc::planning
