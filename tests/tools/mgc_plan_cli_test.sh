@@ -59,6 +59,11 @@ done
 grep -q '"success":true' "$tmp/plan.json" || fail "plan JSON does not say success"
 grep -q '"joint_units":\["deg","deg","m","m"\]' "$tmp/plan.json" || fail "plan JSON joint units wrong"
 grep -q '"seed":3,' "$tmp/plan.json" || fail "plan JSON seed is not the one given"
+"$plan" --scenario "$root/scenarios/excavator-pipelines.yaml" --planner nonuniform --svg "$tmp/plan.svg" --svg-tree >"$tmp/out" 2>"$tmp/err" \
+  || fail "nonuniform with --svg: $(cat "$tmp/err")"
+grep -q "^<svg " "$tmp/plan.svg" || fail "--svg did not write an SVG document"
+[ "$(grep -c "<polyline" "$tmp/plan.svg")" -ge 3 ] || fail "--svg drew no path or tree"
+grep -q "bucket-tip path" "$tmp/plan.svg" || fail "--svg legend does not name the excavator's tool point"
 "$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner rrt --max-iterations 3 --json "$tmp/fail.json" >"$tmp/out" 2>"$tmp/err"
 code=$?
 [ "$code" -eq 1 ] || fail "rrt with 3 iterations: exit $code, expected 1"

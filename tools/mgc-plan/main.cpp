@@ -18,6 +18,7 @@
 #include <string>
 
 #include "json_writer.hpp"
+#include "svg_view.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
 #include "mgc/planning/planners/planner.hpp"
@@ -97,6 +98,8 @@ struct PlanOptions {
   std::optional<int> max_iterations;
   double time_limit_s = 60.0;
   std::string json;
+  std::string svg;
+  bool svg_tree = false;
   bool smooth = true;
 };
 
@@ -172,6 +175,21 @@ int run_plan(const PlanOptions& options) {
                 metrics.dof_switches, metrics.exec_time_sequential_s, metrics.min_clearance_m);
   }
   std::printf("\n");
+
+  if (!options.svg.empty()) {
+    mgc::tools::SvgInput view;
+    view.scenario = &s;
+    view.model = loaded.model.get();
+    view.path = path;
+    view.step = problem.step;
+    if (options.svg_tree) planner->tree(view.tree_nodes, view.tree_parents);
+    std::ofstream out(options.svg);
+    if (!out) {
+      std::fprintf(stderr, "%s: cannot write the file\n", options.svg.c_str());
+      return 2;
+    }
+    out << mgc::tools::render_svg(view);
+  }
 
   if (!options.json.empty()) {
     std::ofstream out(options.json);
@@ -249,6 +267,8 @@ int main(int argc, char** argv) {
       app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(CLI::PositiveNumber);
   app.add_option("--time-limit", options.time_limit_s, "wall-clock limit on planning [s] (default 60)")->check(CLI::PositiveNumber);
   app.add_option("--json", options.json, "write the plan and its metrics here (docs/plan-json.md)");
+  app.add_option("--svg", options.svg, "draw top and side views of the site, the machine at start and goal, and the path");
+  app.add_flag("--svg-tree", options.svg_tree, "also draw the planner's tree in the --svg views");
   bool no_smooth = false;
   app.add_flag("--no-smooth", no_smooth, "keep the planner's raw path (default: shortcut-smoothed)");
   try {
