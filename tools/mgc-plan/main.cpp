@@ -261,7 +261,7 @@ int main(int argc, char** argv) {
   int max_iterations = 0;
   app.add_option("--scenario", options.scenario, "scenario file (YAML, docs/scenario-format.md)")->required();
   app.add_flag("--check", check, "validate the scenario and report whether start and goal are feasible");
-  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, nonuniform");
+  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, nonuniform, rrt-basic");
   auto* seed_option = app.add_option("--seed", seed, "random seed (default: the scenario's)");
   auto* iterations_option =
       app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(CLI::PositiveNumber);

@@ -15,9 +15,10 @@ std::unique_ptr<Planner> make_planner(std::string_view name) {
   if (name == "rrt-ext-ext") return std::make_unique<BidirectionalPlanner>(Variant::ExtExt);
   if (name == "con-con-mod") return std::make_unique<BidirectionalPlanner>(Variant::ConConMod);
   if (name == "nonuniform") return std::make_unique<NonUniformRrtPlanner>();
+  if (name == "rrt-basic") return std::make_unique<NonUniformRrtPlanner>(true);
   return nullptr;
 }
 
-std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform"}; }
+std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform", "rrt-basic"}; }
 
 }  // namespace mgc::planning

@@ -42,10 +42,10 @@ PlannerStatus NonUniformRrtPlanner::reset(const PlanningProblem& problem) {
       lower_[k] = j.position_min;
       upper_[k] = j.position_max;
     }
-    mean_[k] = std::clamp((goal - lower_[k]) / (upper_[k] - lower_[k]), kMeanMargin, 1.0 - kMeanMargin);
+    mean_[k] = uniform_ ? 0.5 : std::clamp((goal - lower_[k]) / (upper_[k] - lower_[k]), kMeanMargin, 1.0 - kMeanMargin);
   }
   hold_bucket_ = false;
-  if (model.kind() == MachineKind::Excavator) {
+  if (model.kind() == MachineKind::Excavator && !uniform_) {
     const double psi_start = bucket_ground_angle_rad(problem.start);
     hold_bucket_ = std::abs(wrap_angle(psi_start - bucket_ground_angle_rad(problem.goal))) < 1e-9;
     bucket_ground_angle_rad_ = psi_start;

@@ -20,7 +20,11 @@ namespace mgc::planning {
 //! bucket = psi - boom - arm, so every configuration of the path keeps the soil in.
 class NonUniformRrtPlanner final : public Planner {
  public:
-  [[nodiscard]] std::string_view name() const noexcept override { return "nonuniform"; }
+  //! uniform: seed 003's baseline "basic RRT" -- the same planner with uniform samples (and no
+  //! held bucket).
+  explicit NonUniformRrtPlanner(bool uniform = false) : uniform_(uniform) {}
+
+  [[nodiscard]] std::string_view name() const noexcept override { return uniform_ ? "rrt-basic" : "nonuniform"; }
   PlannerStatus reset(const PlanningProblem& problem) override;
   [[nodiscard]] PlannerStatus step(int iteration_budget) noexcept override;
   [[nodiscard]] const std::vector<JointVector>& path() const noexcept override { return path_; }
@@ -37,6 +41,7 @@ class NonUniformRrtPlanner final : public Planner {
  private:
   [[nodiscard]] JointVector sample() noexcept;
 
+  bool uniform_ = false;
   const PlanningProblem* problem_ = nullptr;
   Random random_;
   NodeTree tree_;
