@@ -68,6 +68,20 @@ std::unique_ptr<CollisionWorld> build_world(const Scenario& scenario, const Mach
   return world;
 }
 
+PlanningProblem planning_problem(const Scenario& scenario, const MachineModel& model, CollisionWorld& world) {
+  PlanningProblem problem;
+  problem.model = &model;
+  problem.world = &world;
+  problem.start = scenario.start;
+  problem.goal = scenario.goal;
+  problem.step = step_sizes(model, scenario.planner.space_resolution);
+  problem.error_tolerance = scenario.planner.error_tolerance;
+  problem.goal_bias = scenario.planner.goal_bias;
+  problem.max_iterations = scenario.planner.max_iterations;
+  problem.seed = scenario.planner.seed;
+  return problem;
+}
+
 JointVector step_sizes(const MachineModel& model, int space_resolution) {
   JointVector steps(model.dof());
   for (int i = 0; i < model.dof(); ++i) {

@@ -79,13 +79,7 @@ TEST_CASE("planner step() does not allocate after reset", "[unit]") {
       if (std::string_view(planner_name) == "nonuniform" && std::string_view(name) != "excavator-pipelines.yaml") continue;
       CAPTURE(planner_name, name);
       auto loaded = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + name));
-      PlanningProblem problem;
-      problem.model = loaded.model.get();
-      problem.world = loaded.world.get();
-      problem.start = loaded.scenario.start;
-      problem.goal = loaded.scenario.goal;
-      problem.step = step_sizes(*loaded.model, loaded.scenario.planner.space_resolution);
-      problem.goal_bias = loaded.scenario.planner.goal_bias;
+      PlanningProblem problem = planning_problem(loaded.scenario, *loaded.model, *loaded.world);
       problem.max_iterations = 20000;
       problem.seed = 5;
       auto planner = make_planner(planner_name);

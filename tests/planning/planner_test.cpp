@@ -22,16 +22,8 @@ struct Fixture {
   PlanningProblem problem;
 
   explicit Fixture(const std::string& name, std::uint64_t seed = 0)
-      : loaded(io::load_and_build(mgc::test::source_path("scenarios/" + name))) {
-    const Scenario& s = loaded.scenario;
-    problem.model = loaded.model.get();
-    problem.world = loaded.world.get();
-    problem.start = s.start;
-    problem.goal = s.goal;
-    problem.step = step_sizes(*loaded.model, s.planner.space_resolution);
-    problem.error_tolerance = s.planner.error_tolerance;
-    problem.goal_bias = s.planner.goal_bias;
-    problem.max_iterations = s.planner.max_iterations;
+      : loaded(io::load_and_build(mgc::test::source_path("scenarios/" + name))),
+        problem(planning_problem(loaded.scenario, *loaded.model, *loaded.world)) {
     problem.seed = seed;
   }
 };

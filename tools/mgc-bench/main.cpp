@@ -77,16 +77,8 @@ double percentile(std::vector<double> values, double p) {
 }
 
 Run run_once(io::LoadedScenario& loaded, const std::string& planner_name, int max_iterations, std::uint64_t seed) {
-  const Scenario& s = loaded.scenario;
-  PlanningProblem problem;
-  problem.model = loaded.model.get();
-  problem.world = loaded.world.get();
-  problem.start = s.start;
-  problem.goal = s.goal;
-  problem.step = step_sizes(*loaded.model, s.planner.space_resolution);
-  problem.error_tolerance = s.planner.error_tolerance;
-  problem.goal_bias = s.planner.goal_bias;
-  problem.max_iterations = max_iterations > 0 ? max_iterations : s.planner.max_iterations;
+  PlanningProblem problem = planning_problem(loaded.scenario, *loaded.model, *loaded.world);
+  if (max_iterations > 0) problem.max_iterations = max_iterations;
   problem.seed = seed;
   auto planner = make_planner(planner_name);
   Run r;

@@ -124,16 +124,9 @@ int run_plan(const PlanOptions& options) {
     return 2;
   }
   const Scenario& s = loaded.scenario;
-  PlanningProblem problem;
-  problem.model = loaded.model.get();
-  problem.world = loaded.world.get();
-  problem.start = s.start;
-  problem.goal = s.goal;
-  problem.step = step_sizes(*loaded.model, s.planner.space_resolution);
-  problem.error_tolerance = s.planner.error_tolerance;
-  problem.goal_bias = s.planner.goal_bias;
-  problem.max_iterations = options.max_iterations.value_or(s.planner.max_iterations);
-  problem.seed = options.seed.value_or(s.planner.seed);
+  PlanningProblem problem = planning_problem(s, *loaded.model, *loaded.world);
+  problem.max_iterations = options.max_iterations.value_or(problem.max_iterations);
+  problem.seed = options.seed.value_or(problem.seed);
 
   // The planner reads no clock; the tool slices its work and watches the time.
   constexpr int kIterationsPerSlice = 50;

@@ -15,6 +15,7 @@
 #include "mgc/planning/machine_model.hpp"
 #include "mgc/planning/mobile_crane.hpp"
 #include "mgc/planning/obstacle.hpp"
+#include "mgc/planning/planners/problem.hpp"
 #include "mgc/planning/tower_crane.hpp"
 
 namespace mgc::planning {
@@ -103,6 +104,10 @@ struct Scenario {
 //! The collision world of a scenario with its dynamic obstacles posed at t_s.
 [[nodiscard]] std::unique_ptr<CollisionWorld> build_world(const Scenario& scenario, const MachineModel& model,
                                                           double t_s = 0.0);
+
+//! The scenario's query (start, goal and its planner parameters) on a built model and world;
+//! the seed is the scenario's. The model and world must outlive the problem.
+[[nodiscard]] PlanningProblem planning_problem(const Scenario& scenario, const MachineModel& model, CollisionWorld& world);
 
 //! Per-joint edge-check step: range / space_resolution (pi / space_resolution for continuous
 //! joints, since the thesis's Eq. 3.17 degenerates to 0 for a full circle). [rad | m]
