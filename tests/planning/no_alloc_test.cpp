@@ -73,10 +73,13 @@ TEST_CASE("collision queries and dynamic moves do not allocate after finalize", 
 }
 
 TEST_CASE("planner step() does not allocate after reset", "[unit]") {
-  for (const char* planner_name : {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform"}) {
+  for (const char* planner_name : {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform",
+                                   "anytime"}) {
     for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
       // nonuniform is the excavator's planner; it does not get round the cranes' frame.
       if (std::string_view(planner_name) == "nonuniform" && std::string_view(name) != "excavator-pipelines.yaml") continue;
+      // anytime runs some 400 queries; the mobile crane's scenario is enough to count them.
+      if (std::string_view(planner_name) == "anytime" && std::string_view(name) != "thesis-steel-frame.yaml") continue;
       CAPTURE(planner_name, name);
       auto loaded = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + name));
       PlanningProblem problem = planning_problem(loaded.scenario, *loaded.model, *loaded.world);

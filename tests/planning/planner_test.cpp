@@ -3,6 +3,7 @@
 
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
+#include "mgc/planning/planners/anytime.hpp"
 #include "mgc/planning/planners/bidirectional.hpp"
 #include "mgc/planning/planners/nonuniform.hpp"
 #include "mgc/planning/excavator.hpp"
@@ -304,4 +305,30 @@ TEST_CASE("nonuniform: solves the pipelines scenario holding the bucket's ground
   NonUniformRrtPlanner planner;
   REQUIRE(run(planner, f.problem) == PlannerStatus::Solved);
   CHECK_FALSE(planner.holds_bucket());
+}
+
+TEST_CASE("anytime keeps the least rough path and only ever improves it", "[planner]") {
+  Fixture f("thesis-steel-frame.yaml", 0);
+  AnytimePlanner planner(6);
+  REQUIRE(run(planner, f.problem, 7) == PlannerStatus::Solved);
+  dense_recheck("thesis-steel-frame.yaml", planner.path());
+  const auto& history = planner.history();
+  REQUIRE(!history.empty());
+  for (std::size_t i = 1; i < history.size(); ++i) {
+    CHECK(history[i].roughness < history[i - 1].roughness);
+    CHECK(history[i].iterations >= history[i - 1].iterations);
+  }
+  double roughness = 0.0;
+  for (std::size_t e = 0; e + 1 < planner.path().size(); ++e) {
+    roughness += normalized_distance(*f.loaded.model, planner.path()[e], planner.path()[e + 1], false);
+  }
+  CHECK(roughness == Approx(history.back().roughness));
+  // Each seed's RRT-Con-Con run is a candidate: the best is no rougher than seed 0's.
+  BidirectionalPlanner connect(BidirectionalPlanner::Variant::ConCon);
+  REQUIRE(run(connect, f.problem) == PlannerStatus::Solved);
+  double connect_roughness = 0.0;
+  for (std::size_t e = 0; e + 1 < connect.path().size(); ++e) {
+    connect_roughness += normalized_distance(*f.loaded.model, connect.path()[e], connect.path()[e + 1], false);
+  }
+  CHECK(history.back().roughness <= connect_roughness + 1e-12);
 }

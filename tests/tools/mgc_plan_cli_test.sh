@@ -43,7 +43,7 @@ expect_bad "goal in collision" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasibl
 expect_bad "missing file" "^$tmp/none.yaml: cannot open the file" --scenario "$tmp/none.yaml" --check
 expect_bad "no mode" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml"
 expect_bad "both modes" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --planner limcon
-expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, nonuniform, rrt-basic, got 'bogus'$" \
+expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic, got 'bogus'$" \
   --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner bogus
 expect_bad "planning from an infeasible goal" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasible" \
   --scenario "$tmp/goal-in-frame.yaml" --planner limcon
@@ -64,6 +64,9 @@ grep -q '"seed":3,' "$tmp/plan.json" || fail "plan JSON seed is not the one give
 grep -q "^<svg " "$tmp/plan.svg" || fail "--svg did not write an SVG document"
 [ "$(grep -c "<polyline" "$tmp/plan.svg")" -ge 3 ] || fail "--svg drew no path or tree"
 grep -q "bucket-tip path" "$tmp/plan.svg" || fail "--svg legend does not name the excavator's tool point"
+"$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner anytime --json "$tmp/anytime.json" >"$tmp/out" 2>"$tmp/err" \
+  || fail "anytime: $(cat "$tmp/err")"
+grep -q '"anytime_history":\[{"time_ms":' "$tmp/anytime.json" || fail "anytime JSON has no improvement history"
 "$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner rrt --max-iterations 3 --json "$tmp/fail.json" >"$tmp/out" 2>"$tmp/err"
 code=$?
 [ "$code" -eq 1 ] || fail "rrt with 3 iterations: exit $code, expected 1"

@@ -21,6 +21,7 @@
 #include "svg_view.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
+#include "mgc/planning/planners/anytime.hpp"
 #include "mgc/planning/planners/planner.hpp"
 #include "mgc/planning/smoothing.hpp"
 
@@ -134,16 +135,24 @@ int run_plan(const PlanOptions& options) {
   const auto elapsed_s = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   PlannerStatus status = planner->reset(problem);
   bool timed_out = false;
+  // The anytime planner reports improvements by iteration; the tool stamps them with the time.
+  const auto* anytime = dynamic_cast<const AnytimePlanner*>(planner.get());
+  std::vector<double> improvement_ms;
   while (status == PlannerStatus::Running) {
     if (elapsed_s() >= options.time_limit_s) {
       timed_out = true;
       break;
     }
     status = planner->step(kIterationsPerSlice);
+    if (anytime) {
+      while (improvement_ms.size() < anytime->history().size()) improvement_ms.push_back(1000.0 * elapsed_s());
+    }
   }
+  // Out of time, the anytime planner still has its best path so far.
+  const bool anytime_best = anytime && timed_out && anytime->has_path();
   const double planning_time_ms = 1000.0 * elapsed_s();
   const PlannerStats stats = planner->stats();
-  const bool success = status == PlannerStatus::Solved;
+  const bool success = status == PlannerStatus::Solved || anytime_best;
   std::vector<JointVector> path;
   if (success) path = planner->path();
   const int raw_path_nodes = static_cast<int>(path.size());
@@ -230,6 +239,21 @@ int run_plan(const PlanOptions& options) {
     j.key("exec_time_simultaneous_s").value(metrics.exec_time_simultaneous_s);
     j.key("cost").value(metrics.cost);
     j.key("min_clearance_m").value(metrics.min_clearance_m);
+    if (anytime) {
+      j.key("anytime_history").begin_array();
+      for (std::size_t i = 0; i < anytime->history().size(); ++i) {
+        const auto& h = anytime->history()[i];
+        j.begin_object();
+        j.key("time_ms").value(improvement_ms[i]);
+        j.key("iterations").value(h.iterations);
+        j.key("seed").value(problem.seed + static_cast<std::uint64_t>(h.seed_index));
+        j.key("gamma").value(h.gamma);
+        j.key("roughness").value(h.roughness);
+        j.key("cost").value(h.cost);
+        j.end_object();
+      }
+      j.end_array();
+    }
     j.key("parameters").begin_object();
     j.key("max_iterations").value(problem.max_iterations);
     j.key("time_limit_s").value(options.time_limit_s);
@@ -254,7 +278,7 @@ int main(int argc, char** argv) {
   int max_iterations = 0;
   app.add_option("--scenario", options.scenario, "scenario file (YAML, docs/scenario-format.md)")->required();
   app.add_flag("--check", check, "validate the scenario and report whether start and goal are feasible");
-  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, nonuniform, rrt-basic");
+  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic");
   auto* seed_option = app.add_option("--seed", seed, "random seed (default: the scenario's)");
   auto* iterations_option =
       app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(CLI::PositiveNumber);

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/planning/planners/planner.hpp"
+#include "mgc/planning/planners/anytime.hpp"
 #include "mgc/planning/planners/bidirectional.hpp"
 #include "mgc/planning/planners/nonuniform.hpp"
 #include "mgc/planning/planners/single_axis_tree.hpp"
@@ -14,11 +15,12 @@ std::unique_ptr<Planner> make_planner(std::string_view name) {
   if (name == "rrt-ext-con") return std::make_unique<BidirectionalPlanner>(Variant::ExtCon);
   if (name == "rrt-ext-ext") return std::make_unique<BidirectionalPlanner>(Variant::ExtExt);
   if (name == "con-con-mod") return std::make_unique<BidirectionalPlanner>(Variant::ConConMod);
+  if (name == "anytime") return std::make_unique<AnytimePlanner>();
   if (name == "nonuniform") return std::make_unique<NonUniformRrtPlanner>();
   if (name == "rrt-basic") return std::make_unique<NonUniformRrtPlanner>(true);
   return nullptr;
 }
 
-std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform", "rrt-basic"}; }
+std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "anytime", "nonuniform", "rrt-basic"}; }
 
 }  // namespace mgc::planning
