@@ -118,6 +118,10 @@ class SocketCanEndpoint final : public CanBus {
       if (frame.is_error()) {
         apply_error_frame(frame, state_, counters_);
         if ((frame.can_id & policy_.error_mask()) == 0) continue;
+      } else if (state_ == BusState::BusOff) {
+        // The kernel keeps delivering what is already queued (and vcan never goes bus-off), but a
+        // bus-off endpoint takes no part in bus traffic until the restart error frame.
+        continue;
       }
       out[r.count++] = {frame, monotonic_us(t_us, last_t_us_)};
     }

@@ -10,6 +10,7 @@ MGC_PACKAGES=(
   libeigen3-dev libfcl-dev libccd-dev
   liblcm-dev liblcm-bin libglib2.0-dev
   catch2 libyaml-cpp-dev libcli11-dev libboost-dev
+  qemu-system-x86 busybox-static cpio
 )
 
 mgc_install_packages() {

@@ -21,7 +21,16 @@ BusPair open_pair(const std::string& kind, const hal::Clock& clock, std::size_t 
     REQUIRE(b);
     pair.a = std::move(a.bus);
     pair.b = std::move(b.bus);
+  } else if (kind == "socketcan") {
+    auto a = hal::open_can_bus("socketcan:vcan0", &clock);
+    auto b = hal::open_can_bus("socketcan:vcan0", &clock);
+    INFO(a.error << b.error);
+    REQUIRE(a);
+    REQUIRE(b);
+    pair.a = std::move(a.bus);
+    pair.b = std::move(b.bus);
   } else {
+    REQUIRE(kind == "udp");
     auto a = hal::open_can_bus("udp:127.0.0.1:0", &clock);
     auto b = hal::open_can_bus("udp:127.0.0.1:0", &clock);
     REQUIRE(a);

@@ -16,8 +16,13 @@ struct BusPair {
   std::unique_ptr<hal::CanBus> b;
 };
 
-//! Two endpoints of one bus: kind "loop" (a fresh bus name, rx_queue frames per queue) or "udp"
-//! (127.0.0.1, OS-chosen ports, each the other's peer; rx_queue is ignored). REQUIREs success.
+//! The transport kinds the conformance test cases run against in this executable: loop and udp on
+//! the host, socketcan in the vcan VM. Each executable that runs them links one definition.
+const std::vector<std::string>& conformance_transports();
+
+//! Two endpoints of one bus: kind "loop" (a fresh bus name, rx_queue frames per queue), "udp"
+//! (127.0.0.1, OS-chosen ports, each the other's peer) or "socketcan" (two raw sockets on vcan0,
+//! which must exist and be up). rx_queue applies to loop only. REQUIREs success.
 BusPair open_pair(const std::string& kind, const hal::Clock& clock, std::size_t rx_queue = 1024);
 
 //! Receives until `expected` frames arrived or about 2 s passed (or, with stop_when_idle, until a
