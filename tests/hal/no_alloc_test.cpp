@@ -1,36 +1,27 @@
 // SPDX-License-Identifier: Apache-2.0
 // send() and receive() run every control cycle, so after warm-up they must not touch the heap.
-// Global operator new is replaced to count allocations.
+// tests/support/allocation_counter.cpp counts allocations.
 #include <catch2/catch.hpp>
 
 #include <array>
-#include <atomic>
-#include <cstdlib>
-#include <new>
+#include <memory>
 #include <string>
 
+#include "allocation_counter.hpp"
 #include "mgc/hal/bus_plan.hpp"
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/canopen.hpp"
 #include "mgc/hal/device_pdos.hpp"
 #include "transport_support.hpp"
 
-namespace {
-std::atomic<long> g_allocations{0};
-}
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) { return operator new(size); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-
 using namespace mgc::hal;
+
+TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
+  const long before = mgc::test::allocation_count();
+  auto p = std::make_unique<int>(42);
+  CHECK(*p == 42);
+  CHECK(mgc::test::allocation_count() > before);
+}
 
 TEST_CASE("send, receive and the codec do not allocate after warm-up", "[unit][transport]") {
   const std::string kind = GENERATE(as<std::string>{}, "loop", "udp");
@@ -70,10 +61,10 @@ TEST_CASE("send, receive and the codec do not allocate after warm-up", "[unit][t
   };
 
   for (int i = 0; i < 50; ++i) REQUIRE(cycle(i) == 4);
-  const long before = g_allocations.load();
+  const long before = mgc::test::allocation_count();
   long received = 0;
   for (int i = 0; i < 2'000; ++i) received += cycle(i);
-  const long allocations = g_allocations.load() - before;
+  const long allocations = mgc::test::allocation_count() - before;
   CHECK(received == 4 * 2'000);
   CHECK(allocations == 0);
   CHECK(codec.malformed() == 0);

@@ -1,33 +1,24 @@
 // SPDX-License-Identifier: Apache-2.0
 // After finalize(), collision queries and dynamic-obstacle moves must not touch the heap: the
-// controller will run them every cycle. Global operator new is replaced to count allocations.
+// controller will run them every cycle. tests/support/allocation_counter.cpp counts allocations.
 #include <catch2/catch.hpp>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
+#include <memory>
 #include <random>
 
+#include "allocation_counter.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/planners/planner.hpp"
 #include "test_support.hpp"
 
-namespace {
-std::atomic<long> g_allocations{0};
-}
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) { return operator new(size); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-
 using namespace mgc::planning;
+
+TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
+  const long before = mgc::test::allocation_count();
+  auto p = std::make_unique<int>(42);
+  CHECK(*p == 42);
+  CHECK(mgc::test::allocation_count() > before);
+}
 
 TEST_CASE("collision queries and dynamic moves do not allocate after finalize", "[unit]") {
   for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
@@ -64,9 +55,9 @@ TEST_CASE("collision queries and dynamic moves do not allocate after finalize", 
     };
     // Warm-up: the first contact ever found sizes FCL's result buffers once.
     REQUIRE(run(100) > 0);
-    const long before = g_allocations.load();
+    const long before = mgc::test::allocation_count();
     const int collisions = run(static_cast<int>(configurations.size()));
-    const long allocations = g_allocations.load() - before;
+    const long allocations = mgc::test::allocation_count() - before;
     CHECK(collisions > 0);
     CHECK(allocations == 0);
   }
@@ -91,9 +82,9 @@ TEST_CASE("planner step() does not allocate after reset", "[unit]") {
       while (status == PlannerStatus::Running) status = planner->step(100);
       problem.seed = 6;
       status = planner->reset(problem);
-      const long before = g_allocations.load();
+      const long before = mgc::test::allocation_count();
       while (status == PlannerStatus::Running) status = planner->step(100);
-      const long allocations = g_allocations.load() - before;
+      const long allocations = mgc::test::allocation_count() - before;
       CHECK(status == PlannerStatus::Solved);
       CHECK(planner->stats().iterations > 0);
       CHECK(allocations == 0);
