@@ -163,16 +163,7 @@ std::vector<JointSpec> default_excavator_joints() {
   constexpr double kJerkRampS = 0.25;
 
   const auto joint = [&](const char* name, bool continuous, double lo, double hi, double v, double ramp_s) {
-    JointSpec j;
-    j.name = name;
-    j.type = JointType::Revolute;
-    j.continuous = continuous;
-    j.position_min = lo;
-    j.position_max = hi;
-    j.max_velocity = v;
-    j.max_acceleration = v / ramp_s;
-    j.max_jerk = j.max_acceleration / kJerkRampS;
-    return j;
+    return joint_from_ramps(name, JointType::Revolute, continuous, lo, hi, v, ramp_s, kJerkRampS);
   };
   return {
       joint("swing", true, -std::numbers::pi, std::numbers::pi, kSwingRpm * 2.0 * std::numbers::pi / 60.0, kSwingRampS),

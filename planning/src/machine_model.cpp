@@ -14,6 +14,20 @@ double wrap_angle(double angle_rad) noexcept {
   return wrapped - std::numbers::pi;
 }
 
+JointSpec joint_from_ramps(const char* name, JointType type, bool continuous, double position_min, double position_max,
+                           double max_velocity, double accel_ramp_s, double jerk_ramp_s) {
+  JointSpec j;
+  j.name = name;
+  j.type = type;
+  j.continuous = continuous;
+  j.position_min = position_min;
+  j.position_max = position_max;
+  j.max_velocity = max_velocity;
+  j.max_acceleration = max_velocity / accel_ramp_s;
+  j.max_jerk = j.max_acceleration / jerk_ramp_s;
+  return j;
+}
+
 bool JointSpec::contains(double value) const noexcept {
   if (!std::isfinite(value)) return false;
   if (continuous) return true;
@@ -96,6 +110,19 @@ JointVector MachineModel::interpolate(const JointVector& from, const JointVector
     if (joints_[static_cast<std::size_t>(i)].continuous) q[i] = wrap_angle(q[i]);
   }
   return q;
+}
+
+Eigen::Vector3d hang_load(const Eigen::Matrix3d& heading, const Eigen::Vector3d& top, const Eigen::Vector3d& hook,
+                          const Eigen::Vector3d& up, double cable_radius_m, double cable_length_m,
+                          const Eigen::Vector3d& load_size_m, double sling_length_m, BodyState& cable,
+                          BodyState& load) noexcept {
+  cable.world_from_body.linear() = heading;
+  cable.world_from_body.translation() = 0.5 * (top + hook);
+  cable.size_m = Eigen::Vector3d(2.0 * cable_radius_m, 2.0 * cable_radius_m, cable_length_m);
+  load.world_from_body.linear() = heading;
+  load.world_from_body.translation() = hook - (sling_length_m + 0.5 * load_size_m.z()) * up;
+  load.size_m = load_size_m;
+  return hook - (sling_length_m + load_size_m.z()) * up;
 }
 
 Eigen::Isometry3d dh_modified(double alpha_prev_rad, double a_prev_m, double theta_rad, double d_m) noexcept {

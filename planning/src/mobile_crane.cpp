@@ -118,20 +118,11 @@ void MobileCrane::forward_kinematics(const JointVector& q, Kinematics& out) cons
   boom.world_from_body.translation() = 0.5 * (foot + tip);
   boom.size_m = Eigen::Vector3d(g.boom_depth_m, g.boom_width_m, boom_length);
 
-  auto& cable = out.bodies[kCable];
-  cable.world_from_body.linear() = swing_frame.linear();
-  cable.world_from_body.translation() = 0.5 * (tip + hook);
-  cable.size_m = Eigen::Vector3d(2.0 * g.cable_radius_m, 2.0 * g.cable_radius_m, cable_length);
-
-  auto& load = out.bodies[kLoad];
-  load.world_from_body.linear() = swing_frame.linear();
-  load.world_from_body.translation() = hook - (task_.sling_length_m + 0.5 * task_.load_size_m.z()) * up;
-  load.size_m = task_.load_size_m;
-
+  out.points[kPointLoadBottom] = hang_load(swing_frame.linear(), tip, hook, up, g.cable_radius_m, cable_length, task_.load_size_m,
+                                           task_.sling_length_m, out.bodies[kCable], out.bodies[kLoad]);
   out.points[kPointBoomFoot] = foot;
   out.points[kPointBoomTip] = tip;
   out.points[kPointHook] = hook;
-  out.points[kPointLoadBottom] = hook - (task_.sling_length_m + task_.load_size_m.z()) * up;
 }
 
 ConstraintVerdict MobileCrane::check_constraints(const JointVector& q) const noexcept {

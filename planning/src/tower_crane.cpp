@@ -160,19 +160,10 @@ void TowerCrane::forward_kinematics(const JointVector& q, Kinematics& out) const
   // A hook above its upper limit is reported by check_constraints(); the shape must still not get
   // a negative length.
   const double cable_length_m = std::max(0.0, g.jib_height_m - d3);
-  auto& cable = out.bodies[kCable];
-  cable.world_from_body.linear() = slew_frame.linear();
-  cable.world_from_body.translation() = 0.5 * (trolley + hook);
-  cable.size_m = Eigen::Vector3d(2.0 * g.cable_radius_m, 2.0 * g.cable_radius_m, cable_length_m);
-
-  auto& load = out.bodies[kLoad];
-  load.world_from_body.linear() = slew_frame.linear();
-  load.world_from_body.translation() = hook - (task_.sling_length_m + 0.5 * task_.load_size_m.z()) * up;
-  load.size_m = task_.load_size_m;
-
+  out.points[kPointLoadBottom] = hang_load(slew_frame.linear(), trolley, hook, up, g.cable_radius_m, cable_length_m,
+                                           task_.load_size_m, task_.sling_length_m, out.bodies[kCable], out.bodies[kLoad]);
   out.points[kPointTrolley] = trolley;
   out.points[kPointHook] = hook;
-  out.points[kPointLoadBottom] = hook - (task_.sling_length_m + task_.load_size_m.z()) * up;
   out.points[kPointJibTip] = slew_frame * Eigen::Vector3d(g.jib_length_m, 0.0, g.jib_height_m);
 }
 
@@ -210,18 +201,7 @@ std::vector<JointSpec> default_tower_crane_joints() {
   constexpr double kTrolleyMinRadiusM = 3.0;
 
   const auto joint = [&](const char* name, JointType type, bool continuous, double lo, double hi, double v,
-                         double ramp_s) {
-    JointSpec j;
-    j.name = name;
-    j.type = type;
-    j.continuous = continuous;
-    j.position_min = lo;
-    j.position_max = hi;
-    j.max_velocity = v;
-    j.max_acceleration = v / ramp_s;
-    j.max_jerk = j.max_acceleration / kJerkRampS;
-    return j;
-  };
+                         double ramp_s) { return joint_from_ramps(name, type, continuous, lo, hi, v, ramp_s, kJerkRampS); };
   return {
       joint("slew", JointType::Revolute, true, -std::numbers::pi, std::numbers::pi,
             kSlewRpm * 2.0 * std::numbers::pi / 60.0, kSlewRampS),

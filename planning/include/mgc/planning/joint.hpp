@@ -36,6 +36,12 @@ struct JointSpec {
   [[nodiscard]] bool contains(double value) const noexcept;
 };
 
+//! A joint whose acceleration limit reaches max_velocity in accel_ramp_s and whose jerk limit
+//! reaches that acceleration in jerk_ramp_s -- how the documented defaults are stated.
+[[nodiscard]] JointSpec joint_from_ramps(const char* name, JointType type, bool continuous, double position_min,
+                                         double position_max, double max_velocity, double accel_ramp_s,
+                                         double jerk_ramp_s);
+
 //! Wraps an angle into [-pi, pi). [rad]
 [[nodiscard]] double wrap_angle(double angle_rad) noexcept;
 

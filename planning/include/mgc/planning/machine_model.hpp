@@ -117,6 +117,14 @@ class MachineModel {
   Eigen::Isometry3d world_from_base_ = Eigen::Isometry3d::Identity();
 };
 
+//! Poses the hoist rope (a vertical capsule from `top` down to `hook`) and the load box hung
+//! `sling_length_m` under the hook, both turned like `heading`; returns the load's bottom centre.
+//! Shared by the cranes. RT-safe.
+Eigen::Vector3d hang_load(const Eigen::Matrix3d& heading, const Eigen::Vector3d& top, const Eigen::Vector3d& hook,
+                          const Eigen::Vector3d& up, double cable_radius_m, double cable_length_m,
+                          const Eigen::Vector3d& load_size_m, double sling_length_m, BodyState& cable,
+                          BodyState& load) noexcept;
+
 //! Craig's (modified) Denavit–Hartenberg link transform, the form of the thesis's Eq. 2.1:
 //! RotX(alpha_prev) * TransX(a_prev) * RotZ(theta) * TransZ(d).
 [[nodiscard]] Eigen::Isometry3d dh_modified(double alpha_prev_rad, double a_prev_m, double theta_rad,
