@@ -201,3 +201,38 @@ TEST_CASE("bad input: keyframes must move forward in time", "[unit]") {
       "start:\n";
   expect_error(replace(scenario_text(), "start:\n", dynamic), {23, "dynamic_obstacles[0].motion[1].t_s", "a time after the previous key's 5 s"});
 }
+
+TEST_CASE("bad input: UWB tag ids are 0..255 and unique", "[unit]") {
+  const std::string dynamic =
+      "dynamic_obstacles:\n"
+      "  - name: truck\n"
+      "    parts: [{type: box, size_m: [8, 2.5, 3], position_m: [0, 0, 1.5]}]\n"
+      "    motion: [{t_s: 0, position_m: [0, -30, 0], yaw_deg: 0}]\n"
+      "    tags:\n"
+      "      - {id: 4, position_m: [0, 0, 3]}\n"
+      "      - {id: ID, position_m: [3, 0, 3]}\n"
+      "start:\n";
+  expect_error(replace(scenario_text(), "start:\n", replace(dynamic, "ID", "4")),
+               {24, "dynamic_obstacles[0].tags[1].id", "a tag id not used by another tag"});
+  expect_error(replace(scenario_text(), "start:\n", replace(dynamic, "ID", "256")),
+               {24, "dynamic_obstacles[0].tags[1].id", "an integer"});
+  TempFile file("scenario.yaml", replace(scenario_text(), "start:\n", replace(dynamic, "ID", "5")));
+  const Scenario s = io::load_scenario(file.path());
+  REQUIRE(s.dynamic_obstacles[0].tags.size() == 2);
+  CHECK(s.dynamic_obstacles[0].tags[1].id == 5);
+  CHECK(s.dynamic_obstacles[0].tags[1].position_m.x() == 3.0);
+}
+
+TEST_CASE("bad input: the simulation section is checked field by field", "[unit]") {
+  expect_error(scenario_text() + "simulation:\n  uwb_rate_hz: 0\n", {31, "simulation.uwb_rate_hz", "a number in"});
+  expect_error(scenario_text() + "simulation:\n  uwb_noise_m: 0.2\n", {31, "simulation.uwb_noise_m", "unknown field"});
+  expect_error(scenario_text() + "simulation:\n  faults: [{kind: bus-off}]\n", {31, "simulation.faults[0]", "expected text"});
+  TempFile file("scenario.yaml", scenario_text() + "simulation:\n  uwb_latency_ms: 80\n  faults: [bus-off@2+1]\n");
+  const Scenario s = io::load_scenario(file.path());
+  REQUIRE(s.simulation.uwb_latency_ms);
+  CHECK(*s.simulation.uwb_latency_ms == 80.0);
+  CHECK_FALSE(s.simulation.uwb_rate_hz);
+  REQUIRE(s.simulation.faults.size() == 1);
+  CHECK(s.simulation.faults[0].first == "bus-off@2+1");
+  CHECK(s.simulation.faults[0].second.line == 32);
+}

@@ -298,7 +298,7 @@ void read_obstacles(const Value& value, std::vector<StaticObstacle>& out, std::s
   }
 }
 
-DynamicObstacleSpec read_dynamic(const Value& value, std::set<std::string>& names) {
+DynamicObstacleSpec read_dynamic(const Value& value, std::set<std::string>& names, std::set<int>& tag_ids) {
   Fields f = value.fields();
   DynamicObstacleSpec d;
   const Value name_value = f.required("name");
@@ -322,8 +322,43 @@ DynamicObstacleSpec read_dynamic(const Value& value, std::set<std::string>& name
     kf.finish();
     d.motion.push_back(k);
   }
+  if (auto tags = f.optional("tags")) {
+    for (const Value& tag : tags->list()) {
+      Fields tf = tag.fields();
+      UwbTagSpec t;
+      const Value id = tf.required("id");
+      t.id = id.integer(0, 255);
+      if (!tag_ids.insert(t.id).second) id.fail("a tag id not used by another tag");
+      t.position_m = tf.required("position_m").vec3();
+      tf.finish();
+      d.tags.push_back(t);
+    }
+  }
   f.finish();
   return d;
+}
+
+// simulation: mgc-sim's settings for this site; ranges as docs/simulator.md states them.
+SimulationSpec read_simulation(const Value& value) {
+  Fields f = value.fields();
+  SimulationSpec sim;
+  const auto number_in = [&f](const char* key, double lo, double hi, std::optional<double>& out) {
+    if (auto v = f.optional(key)) out = v->number_in(lo, hi);
+  };
+  number_in("physics_rate_hz", 100.0, 10'000.0, sim.physics_rate_hz);
+  number_in("actuator_lag_s", 0.0, 5.0, sim.actuator_lag_s);
+  number_in("valve_deadband_pct", 0.0, 50.0, sim.valve_deadband_pct);
+  number_in("encoder_noise_counts", 0.0, 1000.0, sim.encoder_noise_counts);
+  number_in("uwb_noise_sigma_m", 0.0, 10.0, sim.uwb_noise_sigma_m);
+  number_in("uwb_rate_hz", 0.1, 100.0, sim.uwb_rate_hz);
+  number_in("uwb_latency_ms", 0.0, 5000.0, sim.uwb_latency_ms);
+  number_in("uwb_dropout_pct", 0.0, 100.0, sim.uwb_dropout_pct);
+  number_in("scenario_time_offset_s", 0.0, 1e6, sim.scenario_time_offset_s);
+  if (auto faults = f.optional("faults")) {
+    for (const Value& fault : faults->list()) sim.faults.emplace_back(fault.text(), SourceRef{fault.file(), fault.line(), fault.path()});
+  }
+  f.finish();
+  return sim;
 }
 
 // start/goal: one field per joint, named after the joint with its unit: swing_deg, boom_length_m.
@@ -446,7 +481,8 @@ Scenario load_scenario(const std::filesystem::path& path) {
   std::set<std::string> names;
   read_obstacles(f.required("obstacles"), s.obstacles, names);
   if (auto dynamic = f.optional("dynamic_obstacles")) {
-    for (const Value& d : dynamic->list()) s.dynamic_obstacles.push_back(read_dynamic(d, names));
+    std::set<int> tag_ids;
+    for (const Value& d : dynamic->list()) s.dynamic_obstacles.push_back(read_dynamic(d, names, tag_ids));
   }
 
   const Value start = f.required("start");
@@ -456,6 +492,7 @@ Scenario load_scenario(const std::filesystem::path& path) {
   s.goal = read_configuration(goal, s.machine);
   s.goal_ref = {file, goal.line(), "goal"};
   s.planner = read_planner(f.required("planner"));
+  if (auto sim = f.optional("simulation")) s.simulation = read_simulation(*sim);
   f.finish();
   return s;
 }

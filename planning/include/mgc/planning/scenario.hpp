@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mgc/planning/collision_world.hpp"
@@ -61,9 +62,16 @@ struct Keyframe {
   double yaw_rad = 0.0;                               //!< obstacle frame about world z [rad]
 };
 
+//! A UWB tag fixed to a dynamic obstacle: the controller learns the obstacle's pose from its tags.
+struct UwbTagSpec {
+  int id = 0;                                         //!< 0..255, unique in the scenario
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  //!< in the obstacle's frame [m]
+};
+
 struct DynamicObstacleSpec {
   DynamicObstacle obstacle;
   std::vector<Keyframe> motion;  //!< strictly increasing t_s, at least one key
+  std::vector<UwbTagSpec> tags;  //!< may be empty: then no sensor sees it
 
   //! Pose at time t_s: held at the first key before it and at the last key after it.
   [[nodiscard]] Eigen::Isometry3d pose_at(double t_s) const noexcept;
@@ -81,6 +89,22 @@ struct PlannerParams {
   double replan_goal_bias = 0.15;     //!< Replan_Biasing_Probability
 };
 
+//! The `simulation` section: how mgc-sim behaves on this site. Every field is optional; an absent
+//! one keeps the simulator's default (docs/simulator.md). Planning ignores the section.
+struct SimulationSpec {
+  std::optional<double> physics_rate_hz;       //!< [Hz]
+  std::optional<double> actuator_lag_s;        //!< [s]
+  std::optional<double> valve_deadband_pct;    //!< [%]
+  std::optional<double> encoder_noise_counts;  //!< 1-sigma [count]
+  std::optional<double> uwb_noise_sigma_m;     //!< [m]
+  std::optional<double> uwb_rate_hz;           //!< [Hz]
+  std::optional<double> uwb_latency_ms;        //!< [ms]
+  std::optional<double> uwb_dropout_pct;       //!< [%]
+  std::optional<double> scenario_time_offset_s;  //!< [s]
+  //! Faults in mgc-sim's --fault syntax, each with where it was written.
+  std::vector<std::pair<std::string, SourceRef>> faults;
+};
+
 struct Scenario {
   std::string file;
   std::string name;
@@ -95,6 +119,7 @@ struct Scenario {
   SourceRef start_ref;
   SourceRef goal_ref;
   PlannerParams planner;
+  SimulationSpec simulation;
 };
 
 //! The machine model a scenario describes. Throws std::invalid_argument with the reason when the

@@ -1,0 +1,194 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "mgc/hal/bus_plan.hpp"
+#include "mgc/hal/can_bus.hpp"
+#include "mgc/hal/canopen.hpp"
+#include "mgc/hal/device_pdos.hpp"
+#include "mgc/planning/random.hpp"
+#include "mgc/planning/scenario.hpp"
+#include "mgc/sim/actuator.hpp"
+#include "mgc/sim/faults.hpp"
+
+//! The simulated machine on the bus (docs/simulator.md): hydraulic joints driven by a CANopen
+//! valve node, an absolute encoder node per joint, and a UWB gateway reporting tags on the
+//! scenario's moving obstacles, with noise, latency, dropouts and injected faults. It speaks the
+//! protocol of docs/protocol.md through the same codec as the controller's Hal.
+namespace mgc::sim {
+
+//! UWB gateway behaviour, defaults from DOMAIN-FACTS §3.1 (DW1000-class, dynamic, LOS).
+struct UwbParams {
+  double noise_sigma_m = 0.15;     //!< 1-sigma per axis [m]
+  double rate_hz = 10.0;           //!< fixes per tag per second [Hz]
+  double latency_ms = 50.0;        //!< fix time to frame on the bus [ms]
+  double dropout_probability = 0.02;  //!< a fix that never reaches the bus [-]
+};
+
+struct SimConfig {
+  double physics_rate_hz = 1000.0;   //!< fixed integration rate [Hz]
+  double actuator_lag_s = 0.15;      //!< every joint's flow-to-velocity time constant [s]
+  double valve_deadband = 0.03;      //!< spool fraction without flow [-]
+  double valve_ramp_per_s = 10.0;    //!< the valve node's set-point ramp: full scale in 0.1 s [1/s]
+  double encoder_noise_counts = 0.5; //!< 1-sigma encoder noise before quantisation [count]
+  UwbParams uwb{};
+  std::vector<Fault> faults;
+  std::uint64_t seed = 1;            //!< noise and dropouts; the same seed repeats a run exactly
+  double scenario_time_offset_s = 0.0;  //!< scenario time at simulation time 0 [s]
+};
+
+//! The machine as it really is, for logs and for tests that compare it with the controller's view.
+struct TrueState {
+  double t_s = 0.0;                  //!< simulation time [s]
+  std::size_t num_joints = 0;
+  std::array<double, hal::kMaxBusJoints> position{};  //!< [rad | m], unwrapped
+  std::array<double, hal::kMaxBusJoints> velocity{};  //!< [rad/s | m/s]
+  std::array<double, hal::kMaxBusJoints> spool{};     //!< applied spool fraction [-]
+  hal::pdo::ValveState valve_state = hal::pdo::ValveState::Disabled;
+  hal::pdo::ValveReason valve_reason = hal::pdo::ValveReason::None;
+};
+
+//! Frames and events since start.
+struct SimCounters {
+  std::uint64_t frames_sent = 0;
+  std::uint64_t frames_dropped = 0;     //!< bus-off, or the send queue full [frames]
+  std::uint64_t frames_received = 0;
+  std::uint64_t syncs = 0;
+  std::uint64_t commands_accepted = 0;  //!< valid valve command frames applied [frames]
+  std::uint64_t commands_ignored = 0;   //!< not Active, or a valve-ignore fault [frames]
+  std::uint64_t tag_fixes = 0;          //!< fixes computed [-]
+  std::uint64_t tag_fixes_dropped = 0;  //!< fixes lost on the way (dropout) [-]
+  std::uint64_t fail_safe_events = 0;   //!< valve entries into FailSafe [-]
+  hal::CodecCounters codec{};
+};
+
+//! A tag on one of the scenario's dynamic obstacles.
+struct SimTag {
+  std::uint8_t tag_id = 0;
+  std::size_t obstacle = 0;                               //!< index into scenario.dynamic_obstacles
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   //!< in the obstacle's frame [m]
+};
+
+class Simulator {
+ public:
+  //! The scenario's machine starts at rest at its start configuration, every node booting. The
+  //! bus must outlive the simulator. Throws std::invalid_argument for a machine without a bus
+  //! plan or a configuration out of range.
+  Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimConfig config);
+
+  //! Runs the machine up to now_us (on the bus's clock): physics in fixed steps, then every
+  //! received frame, then every frame due. The first call fixes simulation time 0.
+  void step(std::int64_t now_us) noexcept;
+
+  //! Earliest time step() has work that is not triggered by a received frame [µs].
+  [[nodiscard]] std::int64_t next_event_us() const noexcept;
+
+  [[nodiscard]] const TrueState& truth() const noexcept { return truth_; }
+  [[nodiscard]] const SimCounters& counters() const noexcept { return counters_; }
+  [[nodiscard]] const hal::BusPlan& plan() const noexcept { return plan_; }
+  [[nodiscard]] const std::vector<SimTag>& tags() const noexcept { return tags_; }
+  //! Pose of dynamic obstacle i at the current simulation time.
+  [[nodiscard]] Eigen::Isometry3d obstacle_pose(std::size_t i) const noexcept;
+  //! World position of a tag at the current simulation time [m].
+  [[nodiscard]] Eigen::Vector3d tag_position(const SimTag& tag) const noexcept;
+  [[nodiscard]] const HydraulicActuator& actuator(std::size_t joint) const noexcept { return actuators_[joint]; }
+  [[nodiscard]] double time_s() const noexcept { return truth_.t_s; }
+
+ private:
+  struct Node {
+    std::uint8_t node_id = 0;
+    hal::canopen::NmtState state = hal::canopen::NmtState::BootUp;
+    std::int64_t next_heartbeat_us = 0;
+    bool booted = false;
+  };
+  struct Pending {
+    std::int64_t release_us = 0;
+    std::uint64_t order = 0;
+    hal::CanFrame frame{};
+  };
+  static constexpr std::size_t kPendingCapacity = 1024;
+
+  void advance_physics(std::int64_t now_us) noexcept;
+  void handle(const hal::TimedFrame& frame, std::int64_t now_us) noexcept;
+  void on_nmt(const hal::canopen::NmtMessage& nmt, std::int64_t now_us) noexcept;
+  void on_sync(std::int64_t now_us) noexcept;
+  void on_valve_command(const hal::pdo::ValveCommand& cmd, std::int64_t now_us) noexcept;
+  void supervise_valve(std::int64_t now_us) noexcept;
+  void enter_fail_safe(hal::pdo::ValveReason reason, std::int64_t now_us) noexcept;
+  void emit_heartbeats(std::int64_t now_us) noexcept;
+  void emit_uwb(std::int64_t now_us) noexcept;
+  void queue(const hal::CanFrame& frame, std::int64_t now_us, std::int64_t extra_delay_us = 0) noexcept;
+  void flush(std::int64_t now_us) noexcept;
+  void boot(Node& node, std::int64_t now_us) noexcept;
+  [[nodiscard]] bool fault_active(FaultKind kind, FaultTarget::Kind target = FaultTarget::Kind::None,
+                                  int index = -1) const noexcept;
+  [[nodiscard]] const Fault* find_fault(FaultKind kind, FaultTarget::Kind target, int index) const noexcept;
+  [[nodiscard]] double sim_time_s(std::int64_t now_us) const noexcept;
+  [[nodiscard]] double gaussian() noexcept;
+  [[nodiscard]] Node* node(std::uint8_t node_id) noexcept;
+
+  const planning::Scenario& scenario_;
+  hal::CanBus& bus_;
+  SimConfig config_;
+  hal::BusPlan plan_;
+  planning::Random random_;
+  std::array<HydraulicActuator, hal::kMaxBusJoints> actuators_{};
+  std::vector<SimTag> tags_;
+
+  bool started_ = false;
+  std::int64_t start_us_ = 0;
+  std::int64_t physics_us_ = 0;        //!< physics has run up to here [µs on the bus clock]
+  std::int64_t physics_step_us_ = 1000;
+  TrueState truth_{};
+  SimCounters counters_{};
+
+  // Nodes: encoders 0..n-1, then the UWB gateway, then the valve.
+  std::array<Node, hal::kMaxBusJoints + 2> nodes_{};
+  std::size_t num_nodes_ = 0;
+  std::array<std::int32_t, hal::kMaxBusJoints> stuck_counts_{};
+  std::array<bool, hal::kMaxBusJoints> stuck_{};
+
+  // Valve node.
+  hal::pdo::ValveState valve_state_ = hal::pdo::ValveState::Disabled;
+  hal::pdo::ValveReason valve_reason_ = hal::pdo::ValveReason::None;
+  std::array<double, hal::kMaxBusJoints> commanded_{};  //!< accepted set-points [-]
+  std::uint8_t command_counter_ = 0;
+  bool heartbeat_armed_ = false;
+  std::int64_t last_controller_heartbeat_us_ = 0;
+  bool command_armed_ = false;
+  std::int64_t last_command_us_ = 0;
+
+  // UWB gateway: per tag, the next fix time and sequence.
+  std::vector<std::int64_t> next_fix_us_;
+  std::vector<std::uint8_t> tag_sequence_;
+
+  // Outgoing frames, each with its release time (latency, delay faults).
+  std::array<Pending, kPendingCapacity> pending_{};
+  std::size_t num_pending_ = 0;
+  std::uint64_t pending_order_ = 0;
+  bool bus_off_ = false;
+  std::array<hal::TimedFrame, 64> rx_{};
+};
+
+//! The tags of a scenario's dynamic obstacles, in file order.
+[[nodiscard]] std::vector<SimTag> scenario_tags(const planning::Scenario& scenario);
+
+//! The bus plan of a scenario's machine kind, checked against its joint names.
+[[nodiscard]] hal::BusPlan bus_plan_for(const planning::Scenario& scenario);
+
+}  // namespace mgc::sim
+
+namespace mgc::sim {
+
+//! Applies a scenario's `simulation` section over config: present fields replace the defaults,
+//! faults are appended. Throws planning::io::InputError at the fault's file and line for a fault
+//! that does not parse.
+void apply_simulation_spec(const planning::Scenario& scenario, SimConfig& config);
+
+}  // namespace mgc::sim

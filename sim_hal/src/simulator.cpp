@@ -1,0 +1,487 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/sim/simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "mgc/planning/io/input_error.hpp"
+
+namespace mgc::sim {
+
+using hal::CanFrame;
+using hal::Classified;
+using hal::MessageKind;
+using hal::Status;
+using hal::canopen::NmtCommand;
+using hal::canopen::NmtState;
+using hal::pdo::ValveReason;
+using hal::pdo::ValveState;
+
+namespace {
+
+constexpr double kUsPerS = 1e6;
+
+//! Quality nibble for a fix with this 1-sigma error: the smallest q with q × 10 cm >= sigma.
+std::uint8_t uwb_quality(double sigma_m) noexcept {
+  const double q = std::ceil(sigma_m / 0.1 - 1e-9);
+  if (q < 1.0) return 1;
+  if (q > 14.0) return hal::pdo::kUwbQualityUnknown;
+  return static_cast<std::uint8_t>(q);
+}
+
+}  // namespace
+
+std::vector<SimTag> scenario_tags(const planning::Scenario& scenario) {
+  std::vector<SimTag> tags;
+  for (std::size_t i = 0; i < scenario.dynamic_obstacles.size(); ++i) {
+    for (const planning::UwbTagSpec& t : scenario.dynamic_obstacles[i].tags) {
+      tags.push_back({static_cast<std::uint8_t>(t.id), i, t.position_m});
+    }
+  }
+  return tags;
+}
+
+hal::BusPlan bus_plan_for(const planning::Scenario& scenario) {
+  hal::BusPlan plan;
+  switch (scenario.machine.kind) {
+    case planning::MachineKind::MobileCrane: plan = hal::mobile_crane_bus_plan(); break;
+    case planning::MachineKind::TowerCrane: plan = hal::tower_crane_bus_plan(); break;
+    case planning::MachineKind::Excavator: plan = hal::excavator_bus_plan(); break;
+    default: throw std::invalid_argument("no bus plan for this machine kind");
+  }
+  if (plan.num_joints != scenario.machine.joints.size()) {
+    throw std::invalid_argument("the machine has " + std::to_string(scenario.machine.joints.size()) +
+                                " joints, its bus plan " + std::to_string(plan.num_joints));
+  }
+  for (std::size_t j = 0; j < plan.num_joints; ++j) {
+    if (scenario.machine.joints[j].name != plan.encoders[j].joint) {
+      throw std::invalid_argument("joint " + std::to_string(j) + " is \"" + scenario.machine.joints[j].name +
+                                  "\", the bus plan expects \"" + plan.encoders[j].joint + "\"");
+    }
+  }
+  return plan;
+}
+
+Simulator::Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimConfig config)
+    : scenario_(scenario), bus_(bus), config_(std::move(config)), plan_(bus_plan_for(scenario)), random_(config_.seed) {
+  if (!(config_.physics_rate_hz >= 100.0 && config_.physics_rate_hz <= 10'000.0)) {
+    throw std::invalid_argument("physics rate must be 100..10000 Hz");
+  }
+  if (!(config_.uwb.rate_hz > 0.0)) throw std::invalid_argument("UWB rate must be > 0 Hz");
+  physics_step_us_ = static_cast<std::int64_t>(std::llround(kUsPerS / config_.physics_rate_hz));
+  truth_.num_joints = plan_.num_joints;
+  for (std::size_t j = 0; j < plan_.num_joints; ++j) {
+    const planning::JointSpec& spec = scenario.machine.joints[j];
+    ActuatorParams p;
+    p.max_velocity = spec.max_velocity;
+    p.max_acceleration = spec.max_acceleration;
+    p.lag_s = config_.actuator_lag_s;
+    p.deadband = config_.valve_deadband;
+    p.position_min = spec.position_min;
+    p.position_max = spec.position_max;
+    p.continuous = spec.continuous;
+    const double q0 = scenario.start[static_cast<Eigen::Index>(j)];
+    actuators_[j] = HydraulicActuator(p, q0);
+    truth_.position[j] = q0;
+    nodes_[num_nodes_++].node_id = plan_.encoders[j].node_id;
+  }
+  nodes_[num_nodes_++].node_id = plan_.uwb_gateway_node_id;
+  nodes_[num_nodes_++].node_id = plan_.valve_node_id;
+  tags_ = scenario_tags(scenario);
+  next_fix_us_.assign(tags_.size(), 0);
+  tag_sequence_.assign(tags_.size(), 0);
+}
+
+double Simulator::sim_time_s(std::int64_t now_us) const noexcept {
+  return static_cast<double>(now_us - start_us_) / kUsPerS;
+}
+
+double Simulator::gaussian() noexcept {
+  // Box-Muller on the planner's generator, so a seed fixes every noise sample on any libstdc++.
+  const double u1 = 1.0 - random_.uniform();
+  const double u2 = random_.uniform();
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+}
+
+Simulator::Node* Simulator::node(std::uint8_t node_id) noexcept {
+  for (std::size_t i = 0; i < num_nodes_; ++i) {
+    if (nodes_[i].node_id == node_id) return &nodes_[i];
+  }
+  return nullptr;
+}
+
+const Fault* Simulator::find_fault(FaultKind kind, FaultTarget::Kind target, int index) const noexcept {
+  const double t = truth_.t_s;
+  for (const Fault& f : config_.faults) {
+    if (f.kind != kind || !f.active(t)) continue;
+    if (target != FaultTarget::Kind::None && (f.target.kind != target || f.target.index != index)) continue;
+    return &f;
+  }
+  return nullptr;
+}
+
+bool Simulator::fault_active(FaultKind kind, FaultTarget::Kind target, int index) const noexcept {
+  return find_fault(kind, target, index) != nullptr;
+}
+
+Eigen::Isometry3d Simulator::obstacle_pose(std::size_t i) const noexcept {
+  return scenario_.dynamic_obstacles[i].pose_at(truth_.t_s + config_.scenario_time_offset_s);
+}
+
+Eigen::Vector3d Simulator::tag_position(const SimTag& tag) const noexcept {
+  return obstacle_pose(tag.obstacle) * tag.position_m;
+}
+
+std::int64_t Simulator::next_event_us() const noexcept {
+  if (!started_) return 0;
+  std::int64_t next = physics_us_ + physics_step_us_;
+  for (std::size_t i = 0; i < num_nodes_; ++i) next = std::min(next, nodes_[i].next_heartbeat_us);
+  for (const std::int64_t t : next_fix_us_) next = std::min(next, t);
+  for (std::size_t i = 0; i < num_pending_; ++i) next = std::min(next, pending_[i].release_us);
+  return next;
+}
+
+void Simulator::boot(Node& n, std::int64_t now_us) noexcept {
+  n.state = NmtState::BootUp;
+  queue(hal::canopen::encode_heartbeat({n.node_id, NmtState::BootUp}).value, now_us);
+  n.state = NmtState::PreOperational;
+  n.booted = true;
+  // Staggered by node so the heartbeats of all nodes do not arrive as one burst.
+  n.next_heartbeat_us = now_us + plan_.timing.device_heartbeat_period_us + 7'000 * (n.node_id % 8);
+  if (n.node_id == plan_.valve_node_id) {
+    valve_state_ = ValveState::Disabled;
+    valve_reason_ = ValveReason::None;
+    commanded_.fill(0.0);
+    heartbeat_armed_ = false;
+    command_armed_ = false;
+  }
+}
+
+void Simulator::step(std::int64_t now_us) noexcept {
+  if (!started_) {
+    started_ = true;
+    start_us_ = now_us;
+    physics_us_ = now_us;
+    for (std::size_t t = 0; t < tags_.size(); ++t) {
+      // Spread the tags over one period, as a TDMA schedule would.
+      next_fix_us_[t] = now_us + static_cast<std::int64_t>(kUsPerS / config_.uwb.rate_hz * static_cast<double>(t) /
+                                                           static_cast<double>(tags_.size()));
+    }
+    for (std::size_t i = 0; i < num_nodes_; ++i) boot(nodes_[i], now_us);
+  }
+  advance_physics(now_us);
+  truth_.t_s = sim_time_s(now_us);
+
+  const bool was_bus_off = bus_off_;
+  bus_off_ = fault_active(FaultKind::BusOff);
+  if (bus_off_ != was_bus_off) {
+    // The error frame goes out before the silence (and after it, the restart), so every other
+    // endpoint's controller sees the same bus state.
+    CanFrame err;
+    err.can_id = hal::kCanErrFlag | (bus_off_ ? hal::kCanErrBusOff : hal::kCanErrRestarted);
+    err.dlc = hal::kCanMaxDlc;
+    if (bus_.send(err) == Status::Ok) ++counters_.frames_sent;
+    if (bus_off_) {
+      counters_.frames_dropped += num_pending_;
+      num_pending_ = 0;
+    }
+  }
+
+  while (true) {
+    const hal::ReceiveResult r = bus_.receive(rx_);
+    for (std::size_t k = 0; k < r.count; ++k) {
+      ++counters_.frames_received;
+      if (!bus_off_) handle(rx_[k], now_us);
+    }
+    if (r.count < rx_.size()) break;
+  }
+
+  supervise_valve(now_us);  // the node's own timers run on while its CAN controller is bus-off
+  if (!bus_off_) {
+    emit_heartbeats(now_us);
+    emit_uwb(now_us);
+  }
+  flush(now_us);
+
+  for (std::size_t j = 0; j < plan_.num_joints; ++j) {
+    truth_.position[j] = actuators_[j].position();
+    truth_.velocity[j] = actuators_[j].velocity();
+  }
+  truth_.valve_state = valve_state_;
+  truth_.valve_reason = valve_reason_;
+}
+
+void Simulator::advance_physics(std::int64_t now_us) noexcept {
+  const double dt_s = static_cast<double>(physics_step_us_) / kUsPerS;
+  const double ramp = config_.valve_ramp_per_s * dt_s;
+  while (physics_us_ + physics_step_us_ <= now_us) {
+    for (std::size_t j = 0; j < plan_.num_joints; ++j) {
+      // The node's set-point ramp; fail-safe and disable block the spools at once.
+      const double target = valve_state_ == ValveState::Active ? commanded_[j] : 0.0;
+      double& spool = truth_.spool[j];
+      spool = valve_state_ == ValveState::Active ? std::clamp(target, spool - ramp, spool + ramp) : 0.0;
+      actuators_[j].step(spool, dt_s);
+    }
+    physics_us_ += physics_step_us_;
+  }
+}
+
+void Simulator::handle(const hal::TimedFrame& timed, std::int64_t now_us) noexcept {
+  const CanFrame& f = timed.frame;
+  if (f.is_error()) return;
+  const Classified c = hal::classify(f, plan_);
+  switch (c.kind) {
+    case MessageKind::Nmt: {
+      const auto nmt = hal::canopen::decode_nmt(f);
+      counters_.codec.record(nmt.status);
+      if (nmt.ok()) on_nmt(nmt.value, now_us);
+      return;
+    }
+    case MessageKind::Sync: {
+      const auto sync = hal::canopen::decode_sync(f);
+      counters_.codec.record(sync.status);
+      if (sync.ok()) on_sync(now_us);
+      return;
+    }
+    case MessageKind::Heartbeat: {
+      const auto hb = hal::canopen::decode_heartbeat(f);
+      counters_.codec.record(hb.status);
+      if (hb.ok() && hb.value.node_id == plan_.controller_node_id) {
+        // The valve node consumes the controller's heartbeat from the first one it hears.
+        heartbeat_armed_ = true;
+        last_controller_heartbeat_us_ = timed.t_us;
+      }
+      return;
+    }
+    case MessageKind::ValveCommand: {
+      const auto cmd = hal::pdo::decode_valve_command(f);
+      counters_.codec.record(cmd.status);
+      if (cmd.ok()) on_valve_command(cmd.value, timed.t_us);
+      return;
+    }
+    case MessageKind::Unknown: counters_.codec.record(Status::UnknownId); return;
+    default: counters_.codec.record(Status::Ok); return;  // our own nodes' messages from another sim
+  }
+}
+
+void Simulator::on_nmt(const hal::canopen::NmtMessage& nmt, std::int64_t now_us) noexcept {
+  for (std::size_t i = 0; i < num_nodes_; ++i) {
+    Node& n = nodes_[i];
+    if (nmt.target_node_id != 0 && nmt.target_node_id != n.node_id) continue;
+    const bool valve = n.node_id == plan_.valve_node_id;
+    switch (nmt.command) {
+      case NmtCommand::Start:
+        n.state = NmtState::Operational;
+        if (valve) {
+          // A start clears a fail-safe; the monitors re-arm on the first heartbeat and command.
+          valve_state_ = ValveState::Active;
+          valve_reason_ = ValveReason::None;
+          commanded_.fill(0.0);
+          heartbeat_armed_ = false;
+          command_armed_ = false;
+        }
+        break;
+      case NmtCommand::Stop:
+      case NmtCommand::EnterPreOperational:
+        n.state = nmt.command == NmtCommand::Stop ? NmtState::Stopped : NmtState::PreOperational;
+        if (valve) {
+          valve_state_ = ValveState::Disabled;
+          valve_reason_ = ValveReason::None;
+          commanded_.fill(0.0);
+        }
+        break;
+      case NmtCommand::ResetNode:
+      case NmtCommand::ResetCommunication: boot(n, now_us); break;
+    }
+  }
+}
+
+void Simulator::on_sync(std::int64_t now_us) noexcept {
+  ++counters_.syncs;
+  for (std::size_t j = 0; j < plan_.num_joints; ++j) {
+    const Node& n = nodes_[j];
+    if (n.state != NmtState::Operational) continue;
+    const int joint = static_cast<int>(j);
+    const bool stuck_now = fault_active(FaultKind::EncoderStuck, FaultTarget::Kind::Joint, joint);
+    const hal::pdo::EncoderKind kind = plan_.encoders[j].kind;
+    const double counts_per_si =
+        kind == hal::pdo::EncoderKind::Rotary ? 180.0 / std::numbers::pi / hal::pdo::kRotaryDegPerCount
+                                              : 1000.0 / hal::pdo::kLinearMmPerCount;
+    const double noise_si = config_.encoder_noise_counts * gaussian() / counts_per_si;
+    const auto counts = hal::pdo::si_to_counts(actuators_[j].position() + noise_si, kind);
+    if (stuck_now && !stuck_[j]) stuck_counts_[j] = counts.value;
+    stuck_[j] = stuck_now;
+    if (fault_active(FaultKind::EncoderDropout, FaultTarget::Kind::Joint, joint)) continue;
+    hal::pdo::EncoderPosition pos{n.node_id, stuck_now ? stuck_counts_[j] : counts.value, 0};
+    if (!counts.ok()) pos.status = hal::pdo::kEncoderStatusAlarm;
+    queue(hal::pdo::encode_encoder_position(pos).value, now_us);
+  }
+
+  const Node& valve = nodes_[num_nodes_ - 1];
+  if (valve.state != NmtState::Operational) return;
+  hal::pdo::ValveStatus status{plan_.valve_node_id, valve_state_, valve_reason_, 0, command_counter_};
+  queue(hal::pdo::encode_valve_status(status).value, now_us);
+  const std::size_t banks = (plan_.num_joints + hal::pdo::kJointsPerValveFrame - 1) / hal::pdo::kJointsPerValveFrame;
+  for (std::size_t b = 0; b < banks; ++b) {
+    hal::pdo::ValveApplied applied{plan_.valve_node_id, static_cast<std::uint8_t>(b), {}};
+    for (std::size_t k = 0; k < hal::pdo::kJointsPerValveFrame; ++k) {
+      const std::size_t j = b * hal::pdo::kJointsPerValveFrame + k;
+      if (j < plan_.num_joints) applied.velocity_permyriad[k] = hal::pdo::fraction_to_permyriad(truth_.spool[j]).value;
+    }
+    queue(hal::pdo::encode_valve_applied(applied).value, now_us);
+  }
+}
+
+void Simulator::on_valve_command(const hal::pdo::ValveCommand& cmd, std::int64_t t_us) noexcept {
+  if (valve_state_ != ValveState::Active || fault_active(FaultKind::ValveIgnore)) {
+    ++counters_.commands_ignored;
+    return;
+  }
+  ++counters_.commands_accepted;
+  ++command_counter_;
+  command_armed_ = true;
+  last_command_us_ = t_us;
+  for (std::size_t k = 0; k < hal::pdo::kJointsPerValveFrame; ++k) {
+    const std::size_t j = static_cast<std::size_t>(cmd.bank) * hal::pdo::kJointsPerValveFrame + k;
+    if (j < plan_.num_joints) commanded_[j] = hal::pdo::permyriad_to_fraction(cmd.velocity_permyriad[k]);
+  }
+}
+
+void Simulator::supervise_valve(std::int64_t now_us) noexcept {
+  if (valve_state_ != ValveState::Active) return;
+  if (heartbeat_armed_ && now_us - last_controller_heartbeat_us_ > plan_.timing.valve_heartbeat_timeout_us) {
+    enter_fail_safe(ValveReason::ControllerHeartbeatLost, now_us);
+  } else if (command_armed_ && now_us - last_command_us_ > plan_.timing.valve_command_timeout_us &&
+             !fault_active(FaultKind::ValveIgnore)) {
+    enter_fail_safe(ValveReason::CommandTimeout, now_us);
+  }
+}
+
+void Simulator::enter_fail_safe(ValveReason reason, std::int64_t now_us) noexcept {
+  valve_state_ = ValveState::FailSafe;
+  valve_reason_ = reason;
+  commanded_.fill(0.0);
+  truth_.spool.fill(0.0);  // blocked at once, never floated
+  ++counters_.fail_safe_events;
+  hal::canopen::EmcyMessage emcy;
+  emcy.node_id = plan_.valve_node_id;
+  emcy.error_code = reason == ValveReason::ControllerHeartbeatLost ? hal::canopen::kEmcyHeartbeat
+                                                                    : hal::canopen::kEmcyRpdoTimeout;
+  emcy.error_register = 0x11;  // generic + communication error (CiA 301 0x1001 bits 0 and 4)
+  queue(hal::canopen::encode_emcy(emcy).value, now_us);
+}
+
+void Simulator::emit_heartbeats(std::int64_t now_us) noexcept {
+  for (std::size_t i = 0; i < num_nodes_; ++i) {
+    Node& n = nodes_[i];
+    if (now_us < n.next_heartbeat_us) continue;
+    n.next_heartbeat_us += plan_.timing.device_heartbeat_period_us;
+    if (n.next_heartbeat_us <= now_us) n.next_heartbeat_us = now_us + plan_.timing.device_heartbeat_period_us;
+    const bool lost = i < plan_.num_joints
+                          ? fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Joint, static_cast<int>(i))
+                      : n.node_id == plan_.uwb_gateway_node_id
+                          ? fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::UwbGateway, -1)
+                          : fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Valve, -1);
+    if (lost) continue;
+    queue(hal::canopen::encode_heartbeat({n.node_id, n.state}).value, now_us);
+  }
+}
+
+void Simulator::emit_uwb(std::int64_t now_us) noexcept {
+  const Node& gateway = nodes_[plan_.num_joints];
+  const auto period_us = static_cast<std::int64_t>(std::llround(kUsPerS / config_.uwb.rate_hz));
+  const auto latency_us = static_cast<std::int64_t>(std::llround(config_.uwb.latency_ms * 1e3));
+  const bool silent = fault_active(FaultKind::UwbSilent);
+  for (std::size_t t = 0; t < tags_.size(); ++t) {
+    if (now_us < next_fix_us_[t]) continue;
+    next_fix_us_[t] += period_us;
+    if (next_fix_us_[t] <= now_us) next_fix_us_[t] = now_us + period_us;
+    if (gateway.state != NmtState::Operational || silent) continue;
+    ++counters_.tag_fixes;
+    tag_sequence_[t] = static_cast<std::uint8_t>((tag_sequence_[t] + 1) % hal::pdo::kUwbSequenceModulo);
+    double sigma = config_.uwb.noise_sigma_m;
+    const Fault* noisy = find_fault(FaultKind::TagNoise, FaultTarget::Kind::Tag, tags_[t].tag_id);
+    const double extra = noisy != nullptr ? noisy->sigma_m : 0.0;
+    const Eigen::Vector3d truth = tag_position(tags_[t]);
+    hal::pdo::UwbTagPosition fix{plan_.uwb_gateway_node_id, tags_[t].tag_id, {}, tag_sequence_[t], uwb_quality(sigma)};
+    bool in_range = true;
+    for (int a = 0; a < 3; ++a) {
+      const double noise = sigma * gaussian() + extra * gaussian();
+      const auto c = hal::pdo::metres_to_uwb_counts(truth[a] + noise);
+      in_range = in_range && c.ok();
+      fix.position_cm[static_cast<std::size_t>(a)] = c.value;
+    }
+    if (!in_range) {
+      fix.quality = hal::pdo::kUwbQualityNoFix;
+      fix.position_cm.fill(hal::pdo::kUwbNoPosition);
+    }
+    if (random_.uniform() < config_.uwb.dropout_probability) {
+      ++counters_.tag_fixes_dropped;
+      continue;
+    }
+    queue(hal::pdo::encode_uwb_tag_position(fix).value, now_us, latency_us);
+  }
+}
+
+void Simulator::queue(const CanFrame& frame, std::int64_t now_us, std::int64_t extra_delay_us) noexcept {
+  if (bus_off_ || num_pending_ >= kPendingCapacity) {
+    ++counters_.frames_dropped;
+    return;
+  }
+  const Fault* delay = find_fault(FaultKind::FrameDelay, FaultTarget::Kind::None, -1);
+  const std::int64_t delay_us = delay != nullptr ? static_cast<std::int64_t>(std::llround(delay->delay_ms * 1e3)) : 0;
+  pending_[num_pending_++] = {now_us + extra_delay_us + delay_us, pending_order_++, frame};
+}
+
+void Simulator::flush(std::int64_t now_us) noexcept {
+  // Due frames leave in release order, ties in queueing order; the rest keep their order.
+  while (true) {
+    std::size_t best = num_pending_;
+    for (std::size_t i = 0; i < num_pending_; ++i) {
+      if (pending_[i].release_us > now_us) continue;
+      if (best == num_pending_ || pending_[i].release_us < pending_[best].release_us ||
+          (pending_[i].release_us == pending_[best].release_us && pending_[i].order < pending_[best].order)) {
+        best = i;
+      }
+    }
+    if (best == num_pending_) return;
+    if (bus_.send(pending_[best].frame) == Status::Ok) {
+      ++counters_.frames_sent;
+    } else {
+      ++counters_.frames_dropped;
+    }
+    for (std::size_t i = best + 1; i < num_pending_; ++i) pending_[i - 1] = pending_[i];
+    --num_pending_;
+  }
+}
+
+}  // namespace mgc::sim
+
+namespace mgc::sim {
+
+void apply_simulation_spec(const planning::Scenario& scenario, SimConfig& config) {
+  const planning::SimulationSpec& s = scenario.simulation;
+  if (s.physics_rate_hz) config.physics_rate_hz = *s.physics_rate_hz;
+  if (s.actuator_lag_s) config.actuator_lag_s = *s.actuator_lag_s;
+  if (s.valve_deadband_pct) config.valve_deadband = *s.valve_deadband_pct / 100.0;
+  if (s.encoder_noise_counts) config.encoder_noise_counts = *s.encoder_noise_counts;
+  if (s.uwb_noise_sigma_m) config.uwb.noise_sigma_m = *s.uwb_noise_sigma_m;
+  if (s.uwb_rate_hz) config.uwb.rate_hz = *s.uwb_rate_hz;
+  if (s.uwb_latency_ms) config.uwb.latency_ms = *s.uwb_latency_ms;
+  if (s.uwb_dropout_pct) config.uwb.dropout_probability = *s.uwb_dropout_pct / 100.0;
+  if (s.scenario_time_offset_s) config.scenario_time_offset_s = *s.scenario_time_offset_s;
+  std::vector<std::string> joint_names;
+  for (const auto& j : scenario.machine.joints) joint_names.push_back(j.name);
+  for (const auto& [text, ref] : s.faults) {
+    try {
+      config.faults.push_back(parse_fault(text, joint_names));
+    } catch (const std::invalid_argument& e) {
+      throw planning::io::InputError(ref.file, ref.line, ref.field, e.what());
+    }
+  }
+}
+
+}  // namespace mgc::sim

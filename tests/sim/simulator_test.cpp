@@ -1,0 +1,253 @@
+// SPDX-License-Identifier: Apache-2.0
+// The simulated machine against the controller's Hal on one in-process bus: start-up, encoders,
+// commanded motion with the documented dynamics, the valve node's fail-safe, UWB tags.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <numbers>
+
+#include "mgc/hal/canopen.hpp"
+#include "sim_rig.hpp"
+
+using namespace mgc;
+using hal::Health;
+using hal::pdo::ValveReason;
+using hal::pdo::ValveState;
+using test::SimRig;
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+}  // namespace
+
+TEST_CASE("before NMT start the nodes only send heartbeats; after it, every joint is valid", "[sim][hal]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.run(200'000);
+  const hal::SensorSnapshot& before = *rig.last;
+  for (std::size_t j = 0; j < before.num_joints; ++j) {
+    CHECK(before.encoders[j].heard);
+    CHECK(before.encoders[j].boot_count == 1);
+    CHECK(before.encoders[j].nmt_state == hal::canopen::NmtState::PreOperational);
+    CHECK(before.joints[j].samples == 0);
+    CHECK(before.joints[j].health == Health::Stale);  // alive node, no data: flagged, not invented
+    CHECK_FALSE(before.joints[j].valid);
+  }
+  CHECK_FALSE(before.valve_active());
+  CHECK(rig.sim->counters().commands_ignored > 0);  // commands before start are not applied
+
+  REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0) == hal::Status::Ok);
+  rig.run(50'000);
+  const hal::SensorSnapshot& after = *rig.last;
+  REQUIRE(after.all_joints_valid());
+  CHECK(after.valve_active());
+  CHECK(after.uwb_gateway.health == Health::Alive);
+  for (std::size_t j = 0; j < after.num_joints; ++j) {
+    // Quantisation only (noise is off): 0.001 deg or 0.1 mm.
+    const double resolution = j < 2 ? 0.001 * kDeg : 1e-4;
+    CHECK(std::abs(after.joints[j].position - rig.scenario.start[static_cast<Eigen::Index>(j)]) <= 0.5 * resolution + 1e-12);
+    CHECK(rig.hal->snapshot().t_us - after.joints[j].t_us <= SimRig::kCycleUs);
+  }
+  CHECK(after.codec.malformed() == 0);
+  CHECK(rig.sim->counters().codec.malformed() == 0);
+}
+
+TEST_CASE("a swing command moves the joint with the documented lag, acceleration limit and speed", "[sim][hal]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  REQUIRE(rig.last->valve_active());
+  const planning::JointSpec& swing = rig.scenario.machine.joints[0];
+  const double q0 = rig.sim->truth().position[0];
+
+  rig.command[0] = 0.5 * swing.max_velocity;
+  rig.run(3'000'000);
+  const sim::TrueState& t = rig.sim->truth();
+  // Half spool beyond a 3 % deadband: (0.5 - 0.03) / 0.97 of full speed, reached after many lags.
+  const double expected_v = (0.5 - 0.03) / 0.97 * swing.max_velocity;
+  CHECK(t.velocity[0] == Approx(expected_v).epsilon(1e-3));
+  CHECK(t.spool[0] == Approx(0.5).margin(1e-4));
+  // Other joints held still.
+  for (std::size_t j = 1; j < t.num_joints; ++j) CHECK(t.velocity[j] == 0.0);
+  // The encoder follows the truth, one cycle behind at most.
+  CHECK(std::abs(rig.last->joints[0].position - t.position[0]) <= expected_v * 0.011 + 1e-5);
+  CHECK(rig.last->valve_applied_fraction[0] == Approx(0.5).margin(1e-4));
+  CHECK(t.position[0] > q0 + 0.9 * expected_v * 2.5);
+
+  // Back to zero: it comes to rest (the lag and acceleration limit are checked exactly in
+  // actuator_test.cpp) and stays there.
+  rig.command[0] = 0.0;
+  rig.run(3'000'000);
+  CHECK(std::abs(rig.sim->truth().velocity[0]) < 1e-9);
+  const double rest = rig.sim->truth().position[0];
+  rig.run(500'000);
+  CHECK(rig.sim->truth().position[0] == rest);
+}
+
+TEST_CASE("a command inside the deadband moves nothing", "[sim]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  const double q0 = rig.sim->truth().position[1];
+  rig.command[1] = 0.02 * rig.scenario.machine.joints[1].max_velocity;
+  rig.run(1'000'000);
+  CHECK(rig.sim->truth().position[1] == q0);
+  CHECK(rig.sim->truth().spool[1] == Approx(0.02).margin(1e-4));
+}
+
+TEST_CASE("the valve node blocks every spool when the controller's heartbeat stops", "[sim][hal][failsafe]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  rig.command[0] = rig.scenario.machine.joints[0].max_velocity;
+  rig.run(1'000'000);
+  REQUIRE(rig.sim->truth().spool[0] > 0.9);
+
+  // The controller dies: no heartbeat, no commands.
+  const std::int64_t dead_at = rig.t_us;
+  std::int64_t fail_safe_at = 0;
+  while (rig.t_us - dead_at < 1'000'000) {
+    rig.run(1'000, false);
+    if (rig.sim->truth().valve_state == ValveState::FailSafe) {
+      fail_safe_at = rig.t_us;
+      break;
+    }
+  }
+  REQUIRE(fail_safe_at != 0);
+  // The command timeout (50 ms) fires first, well inside the heartbeat timeout (150 ms).
+  CHECK(fail_safe_at - dead_at <= rig.hal->plan().timing.valve_command_timeout_us + SimRig::kCycleUs + 1'000);
+  CHECK(rig.sim->truth().valve_reason == ValveReason::CommandTimeout);
+  for (std::size_t j = 0; j < rig.sim->truth().num_joints; ++j) CHECK(rig.sim->truth().spool[j] == 0.0);
+
+  // The controller comes back: the node stays in fail-safe, its EMCY and status are visible.
+  rig.run(100'000);
+  const hal::SensorSnapshot& s = *rig.last;
+  CHECK(s.valve.emcy_code == hal::canopen::kEmcyRpdoTimeout);
+  CHECK(s.valve_status.state == ValveState::FailSafe);
+  CHECK(s.valve.health == Health::Faulted);
+  CHECK_FALSE(s.valve_active());
+  CHECK(rig.sim->truth().spool[0] == 0.0);
+
+  // Only a new NMT start makes it follow commands again.
+  REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Start, hal::kValveNodeId) == hal::Status::Ok);
+  rig.run(200'000);
+  CHECK(rig.sim->truth().valve_state == ValveState::Active);
+  CHECK(rig.sim->truth().spool[0] > 0.9);
+}
+
+TEST_CASE("heartbeat loss alone (commands still flowing) trips the valve within its consumer time", "[sim][failsafe]") {
+  sim::SimConfig config = SimRig::quiet_config();
+  SimRig rig("thesis-steel-frame.yaml", config);
+  rig.start();
+  // Keep commanding but stop the controller heartbeat: the Hal's write() sends it, so send the
+  // command frames by hand.
+  rig.send_commands = false;
+  const hal::BusPlan plan = rig.hal->plan();
+  const std::int64_t from = rig.t_us;
+  std::int64_t tripped = 0;
+  while (rig.t_us - from < 500'000 && tripped == 0) {
+    rig.t_us += 1'000;
+    rig.clock.set_us(rig.t_us);
+    if (rig.t_us % SimRig::kCycleUs == 0) {
+      const auto frame = hal::pdo::encode_valve_command({plan.valve_node_id, 0, {{1000, 0, 0, 0}}});
+      REQUIRE(rig.controller_bus->send(frame.value) == hal::Status::Ok);
+    }
+    rig.sim->step(rig.t_us);
+    if (rig.sim->truth().valve_state == ValveState::FailSafe) tripped = rig.t_us;
+  }
+  REQUIRE(tripped != 0);
+  CHECK(rig.sim->truth().valve_reason == ValveReason::ControllerHeartbeatLost);
+  // Last heartbeat at most one controller period before `from`; timeout 150 ms.
+  CHECK(tripped - from <= plan.timing.valve_heartbeat_timeout_us + 1'000);
+  CHECK(tripped - from >= plan.timing.valve_heartbeat_timeout_us - plan.timing.controller_heartbeat_period_us);
+}
+
+TEST_CASE("UWB tags report the second crane's tags at their true positions, rate and latency", "[sim][uwb]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  REQUIRE(rig.sim->tags().size() == 3);
+  rig.run(2'000'000);
+  const hal::SensorSnapshot& s = *rig.last;
+  REQUIRE(s.num_tags == 3);
+  for (const sim::SimTag& tag : rig.sim->tags()) {
+    const hal::TagReading* r = s.find_tag(tag.tag_id);
+    REQUIRE(r != nullptr);
+    CHECK(r->valid);
+    // Crane 2 stands still before 60 s, so the 50 ms latency does not show; 1 cm quantisation.
+    const Eigen::Vector3d truth = rig.sim->tag_position(tag);
+    for (int a = 0; a < 3; ++a) CHECK(std::abs(r->position_m[static_cast<std::size_t>(a)] - truth[a]) <= 0.005 + 1e-9);
+    CHECK(r->missed == 0);
+    // 10 Hz for about 2.25 s since the gateway became operational.
+    CHECK(r->fixes >= 20);
+    CHECK(r->fixes <= 24);
+  }
+}
+
+TEST_CASE("UWB noise and dropouts are what was configured", "[sim][uwb]") {
+  sim::SimConfig config = SimRig::quiet_config();
+  config.uwb.noise_sigma_m = 0.2;
+  config.uwb.dropout_probability = 0.1;
+  config.uwb.rate_hz = 20.0;
+  SimRig rig("thesis-steel-frame.yaml", config);
+  rig.start();
+  double sum_sq = 0.0;
+  int n = 0;
+  rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+    for (const sim::SimTag& tag : rig.sim->tags()) {
+      const hal::TagReading* r = s.find_tag(tag.tag_id);
+      if (r == nullptr || !r->updated) continue;
+      const Eigen::Vector3d truth = rig.sim->tag_position(tag);
+      for (int a = 0; a < 3; ++a) {
+        const double e = r->position_m[static_cast<std::size_t>(a)] - truth[a];
+        sum_sq += e * e;
+        ++n;
+      }
+      CHECK(r->quality == 2);       // 0.2 m: quality × 10 cm covers it at q = 2
+      CHECK(r->sigma_m == Approx(0.2));
+    }
+  };
+  rig.run(30'000'000);
+  REQUIRE(n > 3000);
+  const double sigma = std::sqrt(sum_sq / n);
+  CHECK(sigma == Approx(0.2).epsilon(0.08));
+  const sim::SimCounters& c = rig.sim->counters();
+  const double dropped = static_cast<double>(c.tag_fixes_dropped) / static_cast<double>(c.tag_fixes);
+  CHECK(dropped == Approx(0.1).margin(0.03));
+  // The Hal sees the losses in the sequence numbers, one for one.
+  std::uint64_t missed = 0;
+  for (std::size_t i = 0; i < rig.last->num_tags; ++i) missed += rig.last->tags[i].missed;
+  CHECK(missed == Approx(static_cast<double>(c.tag_fixes_dropped)).margin(3));
+}
+
+TEST_CASE("the same seed gives the same run, a different seed a different one", "[sim]") {
+  const auto run = [](std::uint64_t seed) {
+    sim::SimConfig config;
+    config.seed = seed;
+    SimRig rig("thesis-steel-frame.yaml", config, "seed");
+    rig.start();
+    rig.command[0] = 0.3;
+    std::vector<double> seen;
+    rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+      seen.push_back(s.joints[0].position);
+      for (std::size_t i = 0; i < s.num_tags; ++i) seen.push_back(s.tags[i].position_m[0]);
+    };
+    rig.run(1'000'000);
+    return seen;
+  };
+  const auto a = run(7);
+  CHECK(a == run(7));
+  CHECK(a != run(8));
+}
+
+TEST_CASE("a Stop from NMT disables the valve and the encoders stop sending", "[sim][hal]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  rig.command[2] = 0.1;
+  rig.run(500'000);
+  REQUIRE(rig.sim->truth().spool[2] > 0.0);
+  REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Stop, 0) == hal::Status::Ok);
+  rig.run(100'000);
+  CHECK(rig.sim->truth().valve_state == ValveState::Disabled);
+  CHECK(rig.sim->truth().spool[2] == 0.0);
+  for (std::size_t j = 0; j < rig.last->num_joints; ++j) {
+    CHECK(rig.last->encoders[j].nmt_state == hal::canopen::NmtState::Stopped);
+    CHECK(rig.last->joints[j].health == Health::Stale);
+  }
+}
