@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 
 namespace mgc::planning {
@@ -82,27 +83,84 @@ GeometryPtr make_geometry(const ShapePart& part) {
 void* encode_index(int index) { return reinterpret_cast<void*>(static_cast<std::intptr_t>(index) + 1); }
 int decode_index(void* data) { return static_cast<int>(reinterpret_cast<std::intptr_t>(data) - 1); }
 
+// A CollisionObject whose world AABB is the AABB of its rotated local box, |R| * half extents
+// about the rotated centre. FCL's computeAABB() takes the cube around the local box's bounding
+// sphere instead, which for a long boom or a pipeline is several times larger; both contain the
+// shape, this one is never the larger (each |R| row has unit length), so the broad phase passes
+// fewer pairs to the narrow phase and misses none.
+class PosedObject final : public CollisionObject {
+ public:
+  explicit PosedObject(const std::shared_ptr<fcl::CollisionGeometryd>& geometry) : CollisionObject(geometry) {}
+
+  void compute_tight_aabb() noexcept {
+    const fcl::AABBd& local = cgeom->aabb_local;
+    const Eigen::Vector3d centre = t * local.center();
+    const Eigen::Vector3d half = t.linear().cwiseAbs() * (0.5 * (local.max_ - local.min_));
+    aabb.min_ = centre - half;
+    aabb.max_ = centre + half;
+  }
+};
+
+// Boxes that bound a primitive and that fit inside it, as half extents in its own frame (FCL's
+// shapes are centred, cylinder and capsule along z). [m]
+struct BoxBounds {
+  Eigen::Vector3d outer;
+  Eigen::Vector3d inner;
+};
+
+bool box_bounds(const CollisionObject* o, BoxBounds& out) noexcept {
+  switch (o->getNodeType()) {
+    case fcl::GEOM_BOX: {
+      const auto* box = static_cast<const fcl::Boxd*>(o->collisionGeometry().get());
+      out.outer = 0.5 * box->side;
+      out.inner = out.outer;
+      return true;
+    }
+    case fcl::GEOM_CYLINDER: {
+      const auto* c = static_cast<const fcl::Cylinderd*>(o->collisionGeometry().get());
+      out.outer = Eigen::Vector3d(c->radius, c->radius, 0.5 * c->lz);
+      out.inner = Eigen::Vector3d(c->radius * std::numbers::sqrt2 / 2, c->radius * std::numbers::sqrt2 / 2, 0.5 * c->lz);
+      return true;
+    }
+    case fcl::GEOM_CAPSULE: {
+      const auto* c = static_cast<const fcl::Capsuled*>(o->collisionGeometry().get());
+      out.outer = Eigen::Vector3d(c->radius, c->radius, 0.5 * c->lz + c->radius);
+      out.inner = Eigen::Vector3d(c->radius * std::numbers::sqrt2 / 2, c->radius * std::numbers::sqrt2 / 2, 0.5 * c->lz);
+      return true;
+    }
+    default: return false;
+  }
+}
+
+// FCL's separating-axis test of two oriented boxes given by half extents in the objects' frames.
+// Its 1e-6 padding only ever reports overlap, never separation, for boxes that barely miss.
+bool boxes_overlap(const CollisionObject* a, const Eigen::Vector3d& half_a, const CollisionObject* b,
+                   const Eigen::Vector3d& half_b) noexcept {
+  const Eigen::Matrix3d& ra = a->getTransform().linear();
+  const Eigen::Matrix3d relative_rotation = ra.transpose() * b->getTransform().linear();
+  const Eigen::Vector3d relative_translation =
+      ra.transpose() * (b->getTransform().translation() - a->getTransform().translation());
+  return !fcl::obbDisjoint(relative_rotation, relative_translation, half_a, half_b);
+}
+
 // Yes/no intersection of two posed objects, without touching the heap on the paths our machines
 // and primitive obstacles take:
-//  - box/box: FCL's box-box path (boxBoxIntersect) fills a local contact vector even when no
-//    contacts are requested; its separating-axis test obbDisjoint answers the same question.
-//  - other primitive pairs: FCL's GJK. Both of FCL's narrow-phase solvers allocate here (libccd
-//    builds its shape objects per call, the independent solver always follows an overlap with
-//    EPA for the penetration depth), so GJK runs alone: a yes/no answer needs no depth. An
-//    iteration limit (Failed) counts as contact, the safe side.
+//  - box, cylinder, capsule pairs: the separating-axis test first on boxes around both shapes
+//    (apart: no contact) and on boxes inside both (overlapping: contact). For two boxes that is
+//    the whole, exact answer; FCL's own box-box path (boxBoxIntersect) fills a local contact
+//    vector even when no contacts are requested. Pairs it leaves open go to FCL's GJK. Both of
+//    FCL's narrow-phase solvers allocate there (libccd builds its shape objects per call, the
+//    independent solver always follows an overlap with EPA for the penetration depth), so GJK
+//    runs alone: a yes/no answer needs no depth. An iteration limit (Failed) counts as contact,
+//    the safe side.
 //  - triangle meshes: fcl::collide, which may allocate on contact (documented in the header).
 bool intersects(const CollisionObject* a, const CollisionObject* b, const fcl::CollisionRequestd& request,
                 fcl::CollisionResultd& result) {
-  const bool a_box = a->getNodeType() == fcl::GEOM_BOX;
-  const bool b_box = b->getNodeType() == fcl::GEOM_BOX;
-  if (a_box && b_box) {
-    const auto* box_a = static_cast<const fcl::Boxd*>(a->collisionGeometry().get());
-    const auto* box_b = static_cast<const fcl::Boxd*>(b->collisionGeometry().get());
-    const Eigen::Matrix3d& ra = a->getRotation();
-    const Eigen::Matrix3d relative_rotation = ra.transpose() * b->getRotation();
-    const Eigen::Vector3d relative_translation = ra.transpose() * (b->getTranslation() - a->getTranslation());
-    return !fcl::obbDisjoint(relative_rotation, relative_translation, Eigen::Vector3d(0.5 * box_a->side),
-                             Eigen::Vector3d(0.5 * box_b->side));
+  BoxBounds bounds_a;
+  BoxBounds bounds_b;
+  if (box_bounds(a, bounds_a) && box_bounds(b, bounds_b)) {
+    if (!boxes_overlap(a, bounds_a.outer, b, bounds_b.outer)) return false;
+    if (boxes_overlap(a, bounds_a.inner, b, bounds_b.inner)) return true;
   }
   if (a->getObjectType() == fcl::OT_GEOM && b->getObjectType() == fcl::OT_GEOM) {
     // As GJKSolver_indep's shapeIntersect sets it up, minus the EPA stage.
@@ -161,10 +219,10 @@ struct CollisionWorld::Impl {
   struct Body {
     std::shared_ptr<fcl::Boxd> box;
     std::shared_ptr<fcl::Capsuled> capsule;
-    std::unique_ptr<CollisionObject> object;
+    std::unique_ptr<PosedObject> object;
   };
   struct DynamicPart {
-    std::unique_ptr<CollisionObject> object;
+    std::unique_ptr<PosedObject> object;
     Eigen::Isometry3d obstacle_from_part;
   };
   struct Dynamic {
@@ -174,7 +232,7 @@ struct CollisionWorld::Impl {
   };
 
   std::vector<Body> bodies;
-  std::vector<std::unique_ptr<CollisionObject>> statics;
+  std::vector<std::unique_ptr<PosedObject>> statics;
   std::vector<Dynamic> dynamics;
   fcl::DynamicAABBTreeCollisionManagerd manager;
   bool finalized = false;
@@ -201,7 +259,7 @@ CollisionWorld::CollisionWorld(const MachineModel& model, double dilation_m)
       body.capsule = std::make_shared<fcl::Capsuled>(0.5, 1.0);
       geometry = body.capsule;
     }
-    body.object = std::make_unique<CollisionObject>(geometry);
+    body.object = std::make_unique<PosedObject>(geometry);
     impl_->bodies.push_back(std::move(body));
   }
   // One contact is all a yes/no query needs; the result keeps its buffer across clear().
@@ -215,9 +273,9 @@ CollisionWorld::~CollisionWorld() = default;
 
 int CollisionWorld::add_static(StaticObstacle obstacle) {
   if (impl_->finalized) throw std::logic_error("add_static after finalize");
-  auto object = std::make_unique<CollisionObject>(make_geometry(obstacle.shape));
+  auto object = std::make_unique<PosedObject>(make_geometry(obstacle.shape));
   object->setTransform(obstacle.shape.pose);
-  object->computeAABB();
+  object->compute_tight_aabb();
   const int index = static_cast<int>(impl_->statics.size());
   object->setUserData(encode_index(index));
   impl_->statics.push_back(std::move(object));
@@ -233,11 +291,11 @@ int CollisionWorld::add_dynamic(DynamicObstacle obstacle) {
   dynamic.name = std::move(obstacle.name);
   for (const ShapePart& part : obstacle.parts) {
     Impl::DynamicPart p;
-    p.object = std::make_unique<CollisionObject>(make_geometry(part));
+    p.object = std::make_unique<PosedObject>(make_geometry(part));
     p.object->setUserData(encode_index(index));
     p.obstacle_from_part = part.pose;
     p.object->setTransform(part.pose);
-    p.object->computeAABB();
+    p.object->compute_tight_aabb();
     dynamic.parts.push_back(std::move(p));
   }
   impl_->dynamics.push_back(std::move(dynamic));
@@ -266,7 +324,7 @@ void CollisionWorld::set_dynamic_pose(int index, const Eigen::Isometry3d& world_
   dynamic.pose = world_from_obstacle;
   for (auto& part : dynamic.parts) {
     part.object->setTransform(world_from_obstacle * part.obstacle_from_part);
-    part.object->computeAABB();
+    part.object->compute_tight_aabb();
   }
 }
 
@@ -281,17 +339,24 @@ void CollisionWorld::pose_machine(const JointVector& q) noexcept {
     auto& body = impl_->bodies[i];
     const BodyState& state = impl_->kinematics.bodies[i];
     // Shapes are resized in place (FCL primitives are plain data), so a telescoping boom or a
-    // paying-out cable needs no new geometry.
+    // paying-out cable needs no new geometry; the local AABB is redone only when a size changed.
     if (body.box) {
-      body.box->side = state.size_m + Eigen::Vector3d::Constant(2.0 * m);
-      body.box->computeLocalAABB();
+      const Eigen::Vector3d side = state.size_m + Eigen::Vector3d::Constant(2.0 * m);
+      if (side != body.box->side) {
+        body.box->side = side;
+        body.box->computeLocalAABB();
+      }
     } else {
-      body.capsule->radius = 0.5 * state.size_m.x() + m;
-      body.capsule->lz = state.size_m.z();
-      body.capsule->computeLocalAABB();
+      const double radius_m = 0.5 * state.size_m.x() + m;
+      const double length_m = state.size_m.z();
+      if (radius_m != body.capsule->radius || length_m != body.capsule->lz) {
+        body.capsule->radius = radius_m;
+        body.capsule->lz = length_m;
+        body.capsule->computeLocalAABB();
+      }
     }
     body.object->setTransform(state.world_from_body);
-    body.object->computeAABB();
+    body.object->compute_tight_aabb();
   }
 }
 
