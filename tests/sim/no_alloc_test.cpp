@@ -1,0 +1,40 @@
+// SPDX-License-Identifier: Apache-2.0
+// The Hal's read() and write() run every control cycle: after construction they must not touch
+// the heap, whatever the devices send. The simulator is held to the same rule so that mgc-sim's
+// timing is not disturbed by the allocator. tests/support/allocation_counter.cpp counts.
+#include <catch2/catch.hpp>
+
+#include <memory>
+
+#include "allocation_counter.hpp"
+#include "sim_rig.hpp"
+
+using namespace mgc;
+
+TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
+  const long before = test::allocation_count();
+  auto p = std::make_unique<int>(42);
+  CHECK(*p == 42);
+  CHECK(test::allocation_count() > before);
+}
+
+TEST_CASE("Hal read/write and the simulator do not allocate, faults and fail-safe included", "[unit][sim]") {
+  sim::SimConfig config;  // noise and dropouts on
+  config.faults.push_back(sim::parse_fault("encoder-dropout:swing@1+0.5", std::vector<std::string>{"swing"}));
+  config.faults.push_back(sim::parse_fault("bus-off@2+0.3", {}));
+  config.faults.push_back(sim::parse_fault("frame-delay@3+0.5,delay_ms=40", {}));
+  test::SimRig rig("thesis-steel-frame.yaml", config, "alloc");
+  rig.start();
+  rig.command[0] = 0.05;
+  rig.command[3] = -0.1;
+  rig.run(500'000);  // warm-up: every path once
+
+  const long before = test::allocation_count();
+  rig.run(4'000'000);  // dropout, bus-off with fail-safe, delays
+  REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0) == hal::Status::Ok);
+  rig.run(500'000);
+  CHECK(test::allocation_count() == before);
+  CHECK(rig.sim->counters().fail_safe_events >= 1);
+  CHECK(rig.last->all_joints_valid());
+  CHECK(rig.last->num_tags == 3);
+}
