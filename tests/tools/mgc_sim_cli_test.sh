@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
+# mgc-sim as a process: bad input exits 2 with one line naming what is wrong; a real-time run over
+# UDP on loopback answers a Hal client (mgc-busmon) and writes the truth log; an injected fault shows
+# at the client.
+set -u
+sim="$1"
+busmon="$2"
+root="$3"
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+scenario="$root/scenarios/thesis-steel-frame.yaml"
+
+# expect_bad <name> <regex for the single stderr line> <mgc-sim args...>
+expect_bad() {
+  local name="$1" pattern="$2"
+  shift 2
+  "$sim" "$@" >"$tmp/out" 2>"$tmp/err"
+  local code=$?
+  [ "$code" -eq 2 ] || fail "$name: exit $code, expected 2"
+  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "$name: expected one line on stderr, got: $(cat "$tmp/err")"
+  grep -Eq "$pattern" "$tmp/err" || fail "$name: stderr '$(cat "$tmp/err")' does not match '$pattern'"
+}
+
+"$sim" --help >/dev/null || fail "--help exits non-zero"
+expect_bad "unknown fault" 'fault "encoder-melt:swing": unknown kind' --scenario "$scenario" --fault encoder-melt:swing --duration 1
+expect_bad "fault on an unknown joint" 'unknown target "jib"' --scenario "$scenario" --fault encoder-stuck:jib --duration 1
+expect_bad "bad bus URL" '^mgc-sim: --bus: .*nowhere:1' --scenario "$scenario" --bus nowhere:1 --duration 1
+expect_bad "missing scenario" 'does-not-exist.yaml' --scenario "$tmp/does-not-exist.yaml" --duration 1
+sed "s|^machine: machines/|machine: $root/scenarios/machines/|" "$scenario" >"$tmp/bad-sim.yaml"
+printf 'simulation:\n  uwb_rate_hz: 500\n' >>"$tmp/bad-sim.yaml"
+expect_bad "simulation section out of range" "^$tmp/bad-sim.yaml:[0-9]+: simulation.uwb_rate_hz: expected a number in" \
+  --scenario "$tmp/bad-sim.yaml" --duration 1
+sed "s|^machine: machines/|machine: $root/scenarios/machines/|" "$scenario" >"$tmp/bad-fault.yaml"
+printf 'simulation:\n  faults: [bus-off@soon]\n' >>"$tmp/bad-fault.yaml"
+expect_bad "scenario fault that does not parse" "^$tmp/bad-fault.yaml:[0-9]+: simulation.faults\[0\]: fault \"bus-off@soon\": start time" \
+  --scenario "$tmp/bad-fault.yaml" --duration 1
+
+# Two runs on loopback ports of their own.
+base=$((41000 + ($$ % 4000) * 2))
+run_pair() {  # run_pair <name> <busmon exit expected> <mgc-sim extra args...>
+  local name="$1" want="$2"
+  shift 2
+  local sim_port=$base client_port=$((base + 1))
+  base=$((base + 2))
+  "$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$sim_port,peer=127.0.0.1:$client_port" --duration 3.5 \
+    --truth-csv "$tmp/$name.csv" "$@" >"$tmp/$name.sim" 2>&1 &
+  local pid=$!
+  sleep 0.3
+  "$busmon" --scenario "$scenario" --bus "udp:127.0.0.1:$client_port,peer=127.0.0.1:$sim_port" --start \
+    --duration 2.5 --require-valid >"$tmp/$name.out" 2>&1
+  local code=$?
+  wait "$pid" || fail "$name: mgc-sim exited $?: $(cat "$tmp/$name.sim")"
+  [ "$code" -eq "$want" ] || fail "$name: mgc-busmon exit $code, expected $want: $(tail -12 "$tmp/$name.out")"
+}
+
+run_pair healthy 0
+grep -q 'joint boom_length  *20.0000 m   alive' "$tmp/healthy.out" || fail "healthy: boom length not read as 20 m: $(tail -12 "$tmp/healthy.out")"
+grep -Eq 'tag +1 .* valid' "$tmp/healthy.out" || fail "healthy: tag 1 not valid"
+grep -q 'malformed=0 unknown=0' "$tmp/healthy.out" || fail "healthy: malformed or unknown frames"
+head -1 "$tmp/healthy.csv" | grep -q '^t_s,swing_deg,swing_velocity_deg_s,swing_spool,.*,valve_state,valve_reason,crane-2_x_m,crane-2_y_m,crane-2_z_m,crane-2_yaw_deg$' ||
+  fail "truth CSV header: $(head -1 "$tmp/healthy.csv")"
+rows=$(($(wc -l <"$tmp/healthy.csv") - 1))
+[ "$rows" -ge 300 ] && [ "$rows" -le 360 ] || fail "truth CSV: $rows rows for 3.5 s at 10 ms"
+grep -q 'stopped at 3.5' "$tmp/healthy.sim" || fail "no summary: $(cat "$tmp/healthy.sim")"
+grep -q ' 0 malformed, 0 unknown ids' "$tmp/healthy.sim" || fail "mgc-sim saw malformed frames: $(cat "$tmp/healthy.sim")"
+
+run_pair dropout 1 --fault encoder-dropout:cable_length@1
+grep -q 'joint cable_length .* stale' "$tmp/dropout.out" || fail "dropout: cable_length not stale: $(tail -12 "$tmp/dropout.out")"
+grep -q 'joint swing .* alive' "$tmp/dropout.out" || fail "dropout: swing should stay alive"
+
+[ "$failures" -eq 0 ] && echo "mgc-sim CLI: all checks passed"
+exit $((failures > 0))
