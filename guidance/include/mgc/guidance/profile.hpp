@@ -1,0 +1,70 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <array>
+#include <cstddef>
+
+namespace mgc::guidance {
+
+//! Position, velocity and acceleration of one joint [m or rad, /s, /s²].
+struct JointState {
+  double position = 0.0;      //!< [m] or [rad]
+  double velocity = 0.0;      //!< [m/s] or [rad/s]
+  double acceleration = 0.0;  //!< [m/s²] or [rad/s²]
+};
+
+//! One joint's state and the jerk applied at a sampled instant.
+struct JointSample {
+  double position = 0.0;      //!< [m] or [rad]
+  double velocity = 0.0;      //!< [m/s] or [rad/s]
+  double acceleration = 0.0;  //!< [m/s²] or [rad/s²]
+  double jerk = 0.0;          //!< [m/s³] or [rad/s³]
+};
+
+//! A one-DoF motion of piecewise-constant jerk: up to kMaxPhases phases from a start state. The
+//! state at each phase start is integrated once when the phase is appended, so sampling is exact
+//! (a cubic in the time since the phase start) and O(phases). RT-safe: no alloc, no throw.
+class Profile {
+ public:
+  //! Braking pre-phase (up to 4) + seven-phase profile + one spare.
+  static constexpr std::size_t kMaxPhases = 12;
+
+  //! Clears the phases; the profile then holds `start` (with zero jerk) for all time.
+  void reset(const JointState& start) noexcept;
+
+  //! Drops every phase from index n on (keeps the first n).
+  void truncate(std::size_t n) noexcept {
+    if (n < count_) count_ = n;
+  }
+
+  //! Appends a phase of constant jerk; phases too short to advance the clock are skipped. False when full.
+  [[nodiscard]] bool append(double duration_s, double jerk) noexcept;
+
+  //! State at time t since the profile start [s]. Before 0 the start; after the end the end state
+  //! advanced with zero jerk (a profile ending at rest then holds still).
+  [[nodiscard]] JointSample at_time(double t_s) const noexcept;
+
+  [[nodiscard]] double duration() const noexcept { return start_time_s_[count_]; }  //!< [s]
+  [[nodiscard]] std::size_t phase_count() const noexcept { return count_; }
+  [[nodiscard]] double phase_duration(std::size_t i) const noexcept { return duration_s_[i]; }  //!< [s]
+  [[nodiscard]] double phase_jerk(std::size_t i) const noexcept { return jerk_[i]; }  //!< [/s³]
+  //! State at the start of phase i; i == phase_count() gives the end state.
+  [[nodiscard]] const JointState& state_at_phase(std::size_t i) const noexcept { return start_state_[i]; }
+  [[nodiscard]] double phase_start_time(std::size_t i) const noexcept { return start_time_s_[i]; }  //!< [s]
+  [[nodiscard]] const JointState& end_state() const noexcept { return start_state_[count_]; }
+
+  //! Number of leading phases that brake an initial state beyond the limits (0 when none) [-].
+  std::size_t brake_phase_count = 0;
+
+ private:
+  std::size_t count_ = 0;
+  std::array<double, kMaxPhases> duration_s_{};
+  std::array<double, kMaxPhases> jerk_{};
+  std::array<JointState, kMaxPhases + 1> start_state_{};
+  std::array<double, kMaxPhases + 1> start_time_s_{};
+};
+
+//! The state after moving for t_s [s] with constant jerk from `s` (exact Taylor polynomial).
+[[nodiscard]] JointState advance(const JointState& s, double jerk, double t_s) noexcept;
+
+}  // namespace mgc::guidance

@@ -1,0 +1,35 @@
+// SPDX-License-Identifier: Apache-2.0
+// Trajectory calculation and sampling run in the control cycle: they must not touch the heap.
+#include <catch2/catch.hpp>
+
+#include <memory>
+#include <cmath>
+#include <random>
+
+#include "allocation_counter.hpp"
+#include "mgc/guidance/trajectory.hpp"
+
+using namespace mgc::guidance;
+
+TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
+  const long before = mgc::test::allocation_count();
+  auto p = std::make_unique<int>(42);
+  CHECK(*p == 42);
+  CHECK(mgc::test::allocation_count() > before);
+}
+
+TEST_CASE("calculate_time_optimal and Profile::at_time do not allocate", "[unit]") {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Profile profile;
+  double sink = 0.0;
+  const long before = mgc::test::allocation_count();
+  for (int n = 0; n < 10000; ++n) {
+    const JointLimits limits{1.0 + u(rng) * 0.5, 2.0 + u(rng), 5.0 + u(rng)};
+    const JointState start{u(rng), 3.0 * u(rng), 6.0 * u(rng)};
+    const CalculationResult r = calculate_time_optimal(start, 5.0 * u(rng), limits, profile);
+    sink += r.ok() ? profile.at_time(profile.duration() * 0.5).position : 0.0;
+  }
+  CHECK(mgc::test::allocation_count() == before);
+  CHECK(std::isfinite(sink));
+}
