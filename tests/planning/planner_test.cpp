@@ -9,9 +9,11 @@
 #include "mgc/planning/excavator.hpp"
 #include "mgc/planning/smoothing.hpp"
 #include "mgc/planning/planners/planner.hpp"
+#include "dense_recheck.hpp"
 #include "test_support.hpp"
 
 using namespace mgc::planning;
+using mgc::test::dense_recheck;
 using mgc::test::kDeg;
 
 namespace {
@@ -33,29 +35,6 @@ PlannerStatus run(Planner& planner, const PlanningProblem& problem, int budget =
   PlannerStatus status = planner.reset(problem);
   while (status == PlannerStatus::Running) status = planner.step(budget);
   return status;
-}
-
-// An independent check of a returned path: a fresh world (not the planner's) whose machine keeps
-// half the planner's dilation -- the clearance validate_edge guarantees along the continuous
-// motion -- every edge at a quarter of the planner's step, exact start and goal.
-void dense_recheck(const std::string& scenario, const std::vector<JointVector>& path) {
-  Scenario s = io::load_scenario(mgc::test::source_path("scenarios/" + scenario));
-  s.planner.dilation_m *= 0.5;
-  io::LoadedScenario fresh;
-  fresh.model = build_model(s);
-  fresh.world = build_world(s, *fresh.model);
-  fresh.scenario = std::move(s);
-  const JointVector fine = step_sizes(*fresh.model, 4 * fresh.scenario.planner.space_resolution);
-  REQUIRE(path.size() >= 2);
-  CHECK(path.front() == fresh.scenario.start);
-  CHECK(path.back() == fresh.scenario.goal);
-  CHECK(fresh.world->validate(path.front()).valid());
-  for (std::size_t e = 0; e + 1 < path.size(); ++e) {
-    JointVector at;
-    const Validity v = fresh.world->validate_edge(path[e], path[e + 1], fine, &at);
-    CAPTURE(e, fresh.world->describe(v));
-    REQUIRE(v.valid());
-  }
 }
 
 }  // namespace
