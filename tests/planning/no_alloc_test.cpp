@@ -65,7 +65,7 @@ TEST_CASE("collision queries and dynamic moves do not allocate after finalize", 
 
 TEST_CASE("planner step() does not allocate after reset", "[unit]") {
   for (const char* planner_name : {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform",
-                                   "anytime"}) {
+                                   "anytime", "cart-rrt"}) {
     for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
       // nonuniform is the excavator's planner; it does not get round the cranes' frame.
       if (std::string_view(planner_name) == "nonuniform" && std::string_view(name) != "excavator-pipelines.yaml") continue;
