@@ -9,6 +9,21 @@
 
 namespace mgc::planning {
 
+namespace {
+// Start and goal share a held value when they differ by less than this. [rad]
+constexpr double kHoldTolerance_rad = 1e-9;
+}  // namespace
+
+const char* to_string(ExcavatorSubtask subtask) noexcept {
+  switch (subtask) {
+    case ExcavatorSubtask::Any: return "any";
+    case ExcavatorSubtask::MoveToDump: return "move_to_dump";
+    case ExcavatorSubtask::Dump: return "dump";
+    case ExcavatorSubtask::Return: return "return";
+  }
+  return "unknown";
+}
+
 double NonUniformRrtPlanner::beta_sample(double mean, double uniform) noexcept {
   // Note 003 §2.2: mean e above 1/2 -> Beta(e / (1 - e), 1), x = U^(1/alpha); below ->
   // Beta(1, (1 - e) / e), x = 1 - U^(1/beta); at 1/2, uniform.
@@ -44,15 +59,39 @@ PlannerStatus NonUniformRrtPlanner::reset(const PlanningProblem& problem) {
     }
     mean_[k] = uniform_ ? 0.5 : std::clamp((goal - lower_[k]) / (upper_[k] - lower_[k]), kMeanMargin, 1.0 - kMeanMargin);
   }
+  held_.fill(false);
   hold_bucket_ = false;
+  try_straight_ = false;
+  // Whether start and goal keep what the subtask must hold; a subtask is an excavator's.
+  bool holds_kept = subtask_ == ExcavatorSubtask::Any;
   if (model.kind() == MachineKind::Excavator && !uniform_) {
     const double psi_start = bucket_ground_angle_rad(problem.start);
-    hold_bucket_ = std::abs(wrap_angle(psi_start - bucket_ground_angle_rad(problem.goal))) < 1e-9;
+    const bool same_psi = std::abs(wrap_angle(psi_start - bucket_ground_angle_rad(problem.goal))) < kHoldTolerance_rad;
+    const auto same = [&](int joint) {
+      return std::abs(model.difference(problem.start, problem.goal)[joint]) < kHoldTolerance_rad;
+    };
     bucket_ground_angle_rad_ = psi_start;
+    switch (subtask_) {
+      case ExcavatorSubtask::Any: hold_bucket_ = same_psi; break;
+      case ExcavatorSubtask::MoveToDump:
+        hold_bucket_ = true;
+        holds_kept = same_psi;
+        break;
+      case ExcavatorSubtask::Dump:
+        held_[Excavator::kSwing] = true;
+        held_[Excavator::kBoom] = true;
+        holds_kept = same(Excavator::kSwing) && same(Excavator::kBoom);
+        // Seed 003 plans the dump "parametrically": the straight line when it is free.
+        try_straight_ = true;
+        break;
+      case ExcavatorSubtask::Return: holds_kept = true; break;
+    }
   }
+  if (hold_bucket_) held_[Excavator::kBucket] = true;
 
   if (!problem.world->validate(problem.start).valid()) return status_ = PlannerStatus::InvalidStart;
-  if (!problem.world->validate(problem.goal).valid()) return status_ = PlannerStatus::InvalidGoal;
+  if (!holds_kept || !problem.world->validate(problem.goal).valid()) return status_ = PlannerStatus::InvalidGoal;
+  closest_to_goal_ = step_metric(model, problem.step, problem.start, problem.goal);
   if (!tree_.add(problem.start, -1)) return status_ = PlannerStatus::PoolExhausted;
   return status_ = PlannerStatus::Running;
 }
@@ -75,7 +114,10 @@ JointVector NonUniformRrtPlanner::sample() noexcept {
   JointVector q(model.dof());
   for (int i = 0; i < model.dof(); ++i) {
     const auto k = static_cast<std::size_t>(i);
-    if (hold_bucket_ && i == Excavator::kBucket) continue;
+    if (held_[k]) {
+      q[i] = problem_->start[i];
+      continue;
+    }
     q[i] = lower_[k] + beta_sample(mean_[k], random_.uniform()) * (upper_[k] - lower_[k]);
     if (model.joints()[k].continuous) q[i] = wrap_angle(q[i]);
   }
@@ -85,6 +127,13 @@ JointVector NonUniformRrtPlanner::sample() noexcept {
   return q;
 }
 
+bool NonUniformRrtPlanner::edge_valid(const JointVector& from, const JointVector& to) noexcept {
+  // The far end alone first: most rejected extensions end inside an obstacle, and one check finds
+  // that. Then the whole edge as validate_edge samples it (that end included again).
+  CollisionWorld& world = *problem_->world;
+  return world.validate(to).valid() && world.validate_edge(from, to, problem_->step).valid();
+}
+
 PlannerStatus NonUniformRrtPlanner::step(int iteration_budget) noexcept {
   if (status_ != PlannerStatus::Running) return status_;
   const PlanningProblem& p = *problem_;
@@ -92,6 +141,15 @@ PlannerStatus NonUniformRrtPlanner::step(int iteration_budget) noexcept {
   for (int k = 0; k < iteration_budget; ++k) {
     if (iterations_ >= p.max_iterations) return status_ = PlannerStatus::IterationLimit;
     ++iterations_;
+    if (try_straight_) {
+      try_straight_ = false;
+      if (p.world->validate_edge(p.start, p.goal, p.step).valid()) {
+        path_.push_back(p.start);
+        path_.push_back(p.goal);
+        return status_ = PlannerStatus::Solved;
+      }
+      continue;
+    }
     const JointVector target = sample();
     const int near = tree_.nearest(p, target);
     const JointVector& from = tree_.node(near);
@@ -100,14 +158,19 @@ PlannerStatus NonUniformRrtPlanner::step(int iteration_budget) noexcept {
     // With the bucket held, bucket = psi - boom - arm is linear in the sampled joints, so the
     // straight edge keeps it held all along.
     const JointVector next = d <= p.extend_steps ? target : model.interpolate(from, target, p.extend_steps / d);
-    if (!p.world->validate_edge(from, next, p.step).valid()) continue;
+    if (!edge_valid(from, next)) continue;
     if (!tree_.add(next, near)) return status_ = PlannerStatus::PoolExhausted;
     const int added = static_cast<int>(tree_.size()) - 1;
-    // Within the goal tolerance: try the straight edge to the exact goal.
+    // Try the straight edge to the exact goal from a node within the goal tolerance, and from
+    // the node closest to the goal so far: a goal in a narrow place (a bucket between pipelines)
+    // may have no tree node within the tolerance long after a straight edge to it is free.
     const JointVector gap = model.difference(next, p.goal);
     bool close = true;
     for (int i = 0; i < model.dof() && close; ++i) close = std::abs(gap[i]) <= p.error_tolerance * p.extend_steps * p.step[i];
-    if (close && p.world->validate_edge(next, p.goal, p.step).valid()) {
+    const double to_goal = step_metric(model, p.step, next, p.goal);
+    const bool closest = to_goal < closest_to_goal_;
+    closest_to_goal_ = std::min(closest_to_goal_, to_goal);
+    if ((close || closest) && p.world->validate_edge(next, p.goal, p.step).valid()) {
       path_.clear();
       tree_.append_root_to(added, path_);
       path_.push_back(p.goal);
