@@ -17,6 +17,7 @@
 #include <sstream>
 #include <string>
 
+#include "cycle_plan.hpp"
 #include "json_writer.hpp"
 #include "svg_view.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
@@ -76,6 +77,10 @@ int run_check(const std::string& scenario_file) {
   };
   report("start", s.start);
   report("goal", s.goal);
+  if (s.work_cycle) {
+    report("dumped", s.work_cycle->dumped);
+    report("next dig", s.work_cycle->next_dig);
+  }
 
   if (errors.empty()) {
     JointVector at;
@@ -288,6 +293,10 @@ int main(int argc, char** argv) {
   app.add_flag("--svg-tree", options.svg_tree, "also draw the planner's tree in the --svg views");
   bool no_smooth = false;
   app.add_flag("--no-smooth", no_smooth, "keep the planner's raw path (default: shortcut-smoothed)");
+  bool cycle = false;
+  app.add_flag("--cycle", cycle,
+               "plan the scenario's work cycle (move-to-dump, dump, return; needs a work_cycle section and "
+               "--planner nonuniform)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -302,7 +311,24 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mgc-plan: give either --check or --planner NAME (see --help)\n");
     return 2;
   }
+  if (cycle && (check || options.planner != "nonuniform")) {
+    std::fprintf(stderr, "mgc-plan: --cycle: expected --planner nonuniform (seed 003's subtask rules), got %s\n",
+                 check ? "--check" : ("--planner " + options.planner).c_str());
+    return 2;
+  }
   try {
+    if (cycle) {
+      mgc::tools::CyclePlanOptions cycle_options;
+      cycle_options.scenario = options.scenario;
+      cycle_options.seed = options.seed;
+      cycle_options.max_iterations = options.max_iterations;
+      cycle_options.time_limit_s = options.time_limit_s;
+      cycle_options.json = options.json;
+      cycle_options.svg = options.svg;
+      cycle_options.svg_tree = options.svg_tree;
+      cycle_options.smooth = options.smooth;
+      return mgc::tools::run_cycle_plan(cycle_options);
+    }
     return check ? run_check(options.scenario) : run_plan(options);
   } catch (const mgc::planning::io::InputError& e) {
     std::fprintf(stderr, "%s\n", e.what());

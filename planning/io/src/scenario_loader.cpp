@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "geometry_fields.hpp"
+#include "work_cycle_fields.hpp"
 #include "yaml_fields.hpp"
 
 namespace mgc::planning::io {
@@ -491,6 +492,9 @@ Scenario load_scenario(const std::filesystem::path& path) {
   const Value goal = f.required("goal");
   s.goal = read_configuration(goal, s.machine);
   s.goal_ref = {file, goal.line(), "goal"};
+  if (auto cycle = f.optional("work_cycle")) {
+    s.work_cycle = read_work_cycle(*cycle, s, goal, [&](const Value& v) { return read_configuration(v, s.machine); });
+  }
   s.planner = read_planner(f.required("planner"));
   if (auto sim = f.optional("simulation")) s.simulation = read_simulation(*sim);
   f.finish();
@@ -539,6 +543,10 @@ std::vector<InputError> check_endpoints(LoadedScenario& loaded) {
   };
   check(loaded.scenario.start, loaded.scenario.start_ref);
   check(loaded.scenario.goal, loaded.scenario.goal_ref);
+  if (const auto& cycle = loaded.scenario.work_cycle) {
+    check(cycle->dumped, cycle->dumped_ref);
+    if (!cycle->next_dig_ref.field.empty()) check(cycle->next_dig, cycle->next_dig_ref);
+  }
   return errors;
 }
 

@@ -105,6 +105,16 @@ struct SimulationSpec {
   std::vector<std::pair<std::string, SourceRef>> faults;
 };
 
+//! Seed 003's free-motion cycle of an excavator (the `work_cycle` section): the scenario's start is
+//! the dig pose (bucket full), its goal the dump pose (bucket at the start's ground angle);
+//! dumping moves the arm and bucket to `dumped`, returning goes on to `next_dig`.
+struct WorkCycleSpec {
+  JointVector dumped;    //!< the goal's swing and boom, the arm and bucket after dumping
+  JointVector next_dig;  //!< where returning ends: the start unless the file gives another
+  SourceRef dumped_ref;
+  SourceRef next_dig_ref;  //!< field empty when the file gives no next_dig
+};
+
 struct Scenario {
   std::string file;
   std::string name;
@@ -120,6 +130,7 @@ struct Scenario {
   SourceRef goal_ref;
   PlannerParams planner;
   SimulationSpec simulation;
+  std::optional<WorkCycleSpec> work_cycle;  //!< excavators only
 };
 
 //! The machine model a scenario describes. Throws std::invalid_argument with the reason when the

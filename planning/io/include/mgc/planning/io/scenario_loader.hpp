@@ -31,8 +31,9 @@ struct LoadedScenario {
 //! InputError at the field responsible.
 [[nodiscard]] LoadedScenario load_and_build(const std::filesystem::path& file);
 
-//! Start and goal against joint ranges, the machine's constraints and collision at t = 0: one
-//! InputError per infeasible end (empty when both are feasible).
+//! Start and goal (and a work cycle's dumped and next-dig poses) against joint ranges, the
+//! machine's constraints and collision at t = 0: one InputError per infeasible pose (empty when
+//! all are feasible).
 [[nodiscard]] std::vector<InputError> check_endpoints(LoadedScenario& loaded);
 
 }  // namespace mgc::planning::io
