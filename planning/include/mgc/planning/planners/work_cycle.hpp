@@ -27,6 +27,9 @@ class WorkCyclePlanner final : public Planner {
 
   //! dumped: the dump pose with the arm and bucket moved; next_dig: where the return ends. [rad]
   WorkCyclePlanner(const JointVector& dumped, const JointVector& next_dig);
+  // The subtask planners point into problems_: a copy would plan the original's queries.
+  WorkCyclePlanner(const WorkCyclePlanner&) = delete;
+  WorkCyclePlanner& operator=(const WorkCyclePlanner&) = delete;
 
   [[nodiscard]] std::string_view name() const noexcept override { return "nonuniform"; }
   //! Resets all three subtasks. InvalidStart: the dig pose is invalid; InvalidGoal: a later pose
