@@ -43,7 +43,7 @@ expect_bad "goal in collision" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasibl
 expect_bad "missing file" "^$tmp/none.yaml: cannot open the file" --scenario "$tmp/none.yaml" --check
 expect_bad "no mode" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml"
 expect_bad "both modes" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --planner limcon
-expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic, got 'bogus'$" \
+expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic, cart-rrt, got 'bogus'$" \
   --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner bogus
 expect_bad "planning from an infeasible goal" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasible" \
   --scenario "$tmp/goal-in-frame.yaml" --planner limcon
@@ -76,6 +76,13 @@ expect_bad "unknown option" "." --scenario "$root/scenarios/thesis-steel-frame.y
 
 "$plan" --help >"$tmp/out" 2>&1 || fail "--help exited non-zero"
 grep -q -- "--check" "$tmp/out" || fail "--help does not mention --check"
+grep -q -- "cart-rrt" "$tmp/out" || fail "--help does not list cart-rrt"
+
+# cart-rrt keeps its own time-scaled spline: not smoothed, its trajectory reported.
+"$plan" --scenario "$root/scenarios/excavator-pipelines.yaml" --planner cart-rrt --json "$tmp/cart.json" >/dev/null 2>&1 ||
+  fail "cart-rrt on the excavator scenario failed"
+grep -q '"smoothed":false' "$tmp/cart.json" || fail "cart-rrt path was shortcut-smoothed"
+grep -Eq '"cart_rrt":\{"trajectory_duration_s":[0-9.]+,' "$tmp/cart.json" || fail "cart-rrt JSON lacks its trajectory"
 
 if [ "$failures" -eq 0 ]; then
   echo "mgc-plan CLI: all checks passed"

@@ -23,6 +23,7 @@
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
 #include "mgc/planning/planners/anytime.hpp"
+#include "mgc/planning/planners/cart_rrt.hpp"
 #include "mgc/planning/planners/planner.hpp"
 #include "mgc/planning/smoothing.hpp"
 
@@ -162,7 +163,11 @@ int run_plan(const PlanOptions& options) {
   if (success) path = planner->path();
   const int raw_path_nodes = static_cast<int>(path.size());
   double smoothing_time_ms = 0.0;
-  if (success && options.smooth) {
+  // cart-rrt post-processes its own path (Cartesian shortcuts, then a time-scaled spline whose
+  // samples are the path): straight joint-space shortcuts would throw that trajectory away.
+  const auto* cart = dynamic_cast<const CartRrtPlanner*>(planner.get());
+  const bool smooth = options.smooth && cart == nullptr;
+  if (success && smooth) {
     // One joint at a time stays the rule for paths that follow it.
     SmoothingOptions smoothing;
     smoothing.single_axis = compute_path_metrics(*loaded.model, *loaded.world, path, problem.step).multi_joint_edges == 0;
@@ -234,7 +239,7 @@ int run_plan(const PlanOptions& options) {
     j.key("collision_checks").value(stats.collision_checks);
     j.key("path_nodes").value(metrics.path_nodes);
     j.key("raw_path_nodes").value(raw_path_nodes);
-    j.key("smoothed").value(success && options.smooth);
+    j.key("smoothed").value(success && smooth);
     j.key("smoothing_time_ms").value(smoothing_time_ms);
     j.key("dof_switches").value(metrics.dof_switches);
     j.key("multi_joint_edges").value(metrics.multi_joint_edges);
@@ -244,6 +249,17 @@ int run_plan(const PlanOptions& options) {
     j.key("exec_time_simultaneous_s").value(metrics.exec_time_simultaneous_s);
     j.key("cost").value(metrics.cost);
     j.key("min_clearance_m").value(metrics.min_clearance_m);
+    if (cart && success) {
+      const CartRrtPlanner::Report& r = cart->report();
+      j.key("cart_rrt").begin_object();
+      j.key("trajectory_duration_s").value(r.duration_s);
+      j.key("stops_at_vias").value(r.stops_at_vias);
+      j.key("vias").value(r.vias);
+      j.key("waypoints").value(r.waypoints);
+      j.key("shortcuts").value(r.shortcuts);
+      j.key("tool_length_m").value(r.tool_length_m);
+      j.end_object();
+    }
     if (anytime) {
       j.key("anytime_history").begin_array();
       for (std::size_t i = 0; i < anytime->history().size(); ++i) {
@@ -283,7 +299,9 @@ int main(int argc, char** argv) {
   int max_iterations = 0;
   app.add_option("--scenario", options.scenario, "scenario file (YAML, docs/scenario-format.md)")->required();
   app.add_flag("--check", check, "validate the scenario and report whether start and goal are feasible");
-  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic");
+  std::string planner_list;
+  for (auto n : mgc::planning::planner_names()) planner_list += (planner_list.empty() ? "" : ", ") + std::string(n);
+  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: " + planner_list);
   auto* seed_option = app.add_option("--seed", seed, "random seed (default: the scenario's)");
   auto* iterations_option =
       app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(CLI::PositiveNumber);
