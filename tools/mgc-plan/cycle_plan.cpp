@@ -10,8 +10,7 @@
 #include <numbers>
 #include <vector>
 
-#include "json_writer.hpp"
-#include "svg_view.hpp"
+#include "plan_json.hpp"
 #include "mgc/planning/excavator.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
@@ -24,37 +23,6 @@ namespace {
 using namespace mgc::planning;
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
-
-// File units: degrees for revolute joints, metres for prismatic ones.
-void write_configuration(JsonWriter& j, const MachineModel& model, const JointVector& q) {
-  j.begin_array();
-  for (int i = 0; i < model.dof(); ++i) {
-    const JointSpec& spec = model.joints()[static_cast<std::size_t>(i)];
-    j.value(spec.type == JointType::Revolute ? q[i] * kRadToDeg : q[i]);
-  }
-  j.end_array();
-}
-
-void write_path(JsonWriter& j, const MachineModel& model, const std::vector<JointVector>& path) {
-  j.key("path").begin_array();
-  for (const JointVector& q : path) write_configuration(j, model, q);
-  j.end_array();
-  j.key("moving_joint").begin_array();
-  for (std::size_t e = 0; e + 1 < path.size(); ++e) j.value(moving_joint(model, path[e], path[e + 1]));
-  j.end_array();
-}
-
-void write_metrics(JsonWriter& j, const PathMetrics& m) {
-  j.key("path_nodes").value(m.path_nodes);
-  j.key("dof_switches").value(m.dof_switches);
-  j.key("multi_joint_edges").value(m.multi_joint_edges);
-  j.key("length_normalized").value(m.length_normalized);
-  j.key("roughness").value(m.roughness);
-  j.key("exec_time_sequential_s").value(m.exec_time_sequential_s);
-  j.key("exec_time_simultaneous_s").value(m.exec_time_simultaneous_s);
-  j.key("cost").value(m.cost);
-  j.key("min_clearance_m").value(m.min_clearance_m);
-}
 
 // What each subtask keeps fixed, as the JSON names it.
 std::vector<const char*> held(ExcavatorSubtask subtask) {
@@ -175,12 +143,7 @@ int run_cycle_plan(const CyclePlanOptions& options) {
     view.path = path;
     view.step = problem.step;
     if (options.svg_tree) planner.tree(view.tree_nodes, view.tree_parents);
-    std::ofstream out(options.svg);
-    if (!out) {
-      std::fprintf(stderr, "%s: cannot write the file\n", options.svg.c_str());
-      return 2;
-    }
-    out << render_svg(view);
+    if (!write_svg_file(options.svg, view)) return 2;
   }
 
   if (!options.json.empty()) {
@@ -197,12 +160,7 @@ int run_cycle_plan(const CyclePlanOptions& options) {
     j.key("scenario").value(s.file);
     j.key("seed").value(problem.seed);
     j.key("work_cycle").value(true);
-    j.key("joint_names").begin_array();
-    for (const auto& joint : model.joints()) j.value(joint.name);
-    j.end_array();
-    j.key("joint_units").begin_array();
-    for (const auto& joint : model.joints()) j.value(joint.type == JointType::Revolute ? "deg" : "m");
-    j.end_array();
+    write_joints(j, model);
     write_path(j, model, path);
     j.key("planning_time_ms").value(planning_time_ms);
     j.key("iterations").value(stats.iterations);

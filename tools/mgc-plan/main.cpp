@@ -19,6 +19,7 @@
 
 #include "cycle_plan.hpp"
 #include "json_writer.hpp"
+#include "plan_json.hpp"
 #include "svg_view.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
@@ -110,11 +111,6 @@ struct PlanOptions {
   bool smooth = true;
 };
 
-// File units: degrees for revolute joints, metres for prismatic ones.
-double to_file_units(const mgc::planning::JointSpec& j, double value) {
-  return j.type == JointType::Revolute ? value * 180.0 / std::numbers::pi : value;
-}
-
 int run_plan(const PlanOptions& options) {
   using namespace mgc::planning;
   auto planner = make_planner(options.planner);
@@ -195,12 +191,7 @@ int run_plan(const PlanOptions& options) {
     view.path = path;
     view.step = problem.step;
     if (options.svg_tree) planner->tree(view.tree_nodes, view.tree_parents);
-    std::ofstream out(options.svg);
-    if (!out) {
-      std::fprintf(stderr, "%s: cannot write the file\n", options.svg.c_str());
-      return 2;
-    }
-    out << mgc::tools::render_svg(view);
+    if (!mgc::tools::write_svg_file(options.svg, view)) return 2;
   }
 
   if (!options.json.empty()) {
@@ -217,38 +208,16 @@ int run_plan(const PlanOptions& options) {
     j.key("planner").value(options.planner);
     j.key("scenario").value(s.file);
     j.key("seed").value(problem.seed);
-    j.key("joint_names").begin_array();
-    for (const auto& joint : model.joints()) j.value(joint.name);
-    j.end_array();
-    j.key("joint_units").begin_array();
-    for (const auto& joint : model.joints()) j.value(joint.type == JointType::Revolute ? "deg" : "m");
-    j.end_array();
-    j.key("path").begin_array();
-    for (const JointVector& q : path) {
-      j.begin_array();
-      for (int i = 0; i < model.dof(); ++i) j.value(to_file_units(model.joints()[static_cast<std::size_t>(i)], q[i]));
-      j.end_array();
-    }
-    j.end_array();
-    j.key("moving_joint").begin_array();
-    for (std::size_t e = 0; e + 1 < path.size(); ++e) j.value(moving_joint(model, path[e], path[e + 1]));
-    j.end_array();
+    mgc::tools::write_joints(j, model);
+    mgc::tools::write_path(j, model, path);
     j.key("planning_time_ms").value(planning_time_ms);
     j.key("iterations").value(stats.iterations);
     j.key("tree_nodes").value(stats.tree_nodes);
     j.key("collision_checks").value(stats.collision_checks);
-    j.key("path_nodes").value(metrics.path_nodes);
     j.key("raw_path_nodes").value(raw_path_nodes);
     j.key("smoothed").value(success && smooth);
     j.key("smoothing_time_ms").value(smoothing_time_ms);
-    j.key("dof_switches").value(metrics.dof_switches);
-    j.key("multi_joint_edges").value(metrics.multi_joint_edges);
-    j.key("length_normalized").value(metrics.length_normalized);
-    j.key("roughness").value(metrics.roughness);
-    j.key("exec_time_sequential_s").value(metrics.exec_time_sequential_s);
-    j.key("exec_time_simultaneous_s").value(metrics.exec_time_simultaneous_s);
-    j.key("cost").value(metrics.cost);
-    j.key("min_clearance_m").value(metrics.min_clearance_m);
+    mgc::tools::write_metrics(j, metrics);
     if (cart && success) {
       const CartRrtPlanner::Report& r = cart->report();
       j.key("cart_rrt").begin_object();
