@@ -13,32 +13,17 @@
 #include "mgc/planning/planners/cart_rrt.hpp"
 #include "mgc/planning/spline_trajectory.hpp"
 #include "mgc/planning/tower_crane.hpp"
+#include "planner_fixture.hpp"
 #include "test_support.hpp"
 
 using namespace mgc::planning;
 using mgc::test::dense_recheck;
+using mgc::test::Fixture;
 using mgc::test::kDeg;
+using mgc::test::kScenarios;
+using mgc::test::run;
 
 namespace {
-
-const char* const kScenarios[] = {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"};
-
-struct Fixture {
-  io::LoadedScenario loaded;
-  PlanningProblem problem;
-
-  explicit Fixture(const std::string& name, std::uint64_t seed = 0)
-      : loaded(io::load_and_build(mgc::test::source_path("scenarios/" + name))),
-        problem(planning_problem(loaded.scenario, *loaded.model, *loaded.world)) {
-    problem.seed = seed;
-  }
-};
-
-PlannerStatus run(Planner& planner, const PlanningProblem& problem, int budget = 1000) {
-  PlannerStatus status = planner.reset(problem);
-  while (status == PlannerStatus::Running) status = planner.step(budget);
-  return status;
-}
 
 Eigen::Vector3d tool_point(const MachineModel& model, const JointVector& q) {
   Kinematics k;
