@@ -5,10 +5,8 @@
 set -u
 plan="$1"
 root="$2"
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+cli="$plan"
+source "$(dirname "$0")/cli_support.sh"
 
 for scenario in "$root"/scenarios/*.yaml; do
   "$plan" --scenario "$scenario" --check >"$tmp/out" 2>"$tmp/err"
@@ -19,16 +17,6 @@ for scenario in "$root"/scenarios/*.yaml; do
   grep -q "joint-space line from start to goal is blocked" "$tmp/out" || fail "$scenario: straight line not reported blocked"
 done
 
-# expect_bad <name> <regex for the single stderr line> <mgc-plan args...>
-expect_bad() {
-  local name="$1" pattern="$2"
-  shift 2
-  "$plan" "$@" >"$tmp/out" 2>"$tmp/err"
-  local code=$?
-  [ "$code" -eq 2 ] || fail "$name: exit $code, expected 2"
-  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "$name: expected one line on stderr, got: $(cat "$tmp/err")"
-  grep -Eq "$pattern" "$tmp/err" || fail "$name: stderr '$(cat "$tmp/err")' does not match '$pattern'"
-}
 
 sed 's/load_lb: 20000 /load_lb: 150000 /' "$root/scenarios/thesis-steel-frame.yaml" >"$tmp/heavy.yaml"
 sed -i "s|^machine: machines/|machine: $root/scenarios/machines/|" "$tmp/heavy.yaml"
@@ -84,8 +72,4 @@ grep -q -- "cart-rrt" "$tmp/out" || fail "--help does not list cart-rrt"
 grep -q '"smoothed":false' "$tmp/cart.json" || fail "cart-rrt path was shortcut-smoothed"
 grep -Eq '"cart_rrt":\{"trajectory_duration_s":[0-9.]+,' "$tmp/cart.json" || fail "cart-rrt JSON lacks its trajectory"
 
-if [ "$failures" -eq 0 ]; then
-  echo "mgc-plan CLI: all checks passed"
-  exit 0
-fi
-exit 1
+finish "mgc-plan CLI"

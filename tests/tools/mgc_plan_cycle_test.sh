@@ -5,22 +5,9 @@
 set -u
 plan="$1"
 root="$2"
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+cli="$plan"
+source "$(dirname "$0")/cli_support.sh"
 cycle="$root/scenarios/excavator-cycle.yaml"
-
-# expect_bad <name> <regex for the single stderr line> <mgc-plan args...>
-expect_bad() {
-  local name="$1" pattern="$2"
-  shift 2
-  "$plan" "$@" >"$tmp/out" 2>"$tmp/err"
-  local code=$?
-  [ "$code" -eq 2 ] || fail "$name: exit $code, expected 2"
-  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "$name: expected one line on stderr, got: $(cat "$tmp/err")"
-  grep -Eq "$pattern" "$tmp/err" || fail "$name: stderr '$(cat "$tmp/err")' does not match '$pattern'"
-}
 
 "$plan" --scenario "$cycle" --check >"$tmp/out" 2>"$tmp/err" || fail "--check: $(cat "$tmp/err")"
 grep -q "^dumped .*arm -80 deg, bucket -15 deg" "$tmp/out" || fail "--check does not report the dumped pose"
@@ -67,8 +54,4 @@ sed -e "s|^machine: machines/|machine: $root/scenarios/machines/|" -e 's/bucket_
 expect_bad "dump that does not open the bucket" "^$tmp/no-dump.yaml:[0-9]+: work_cycle.dump.bucket_deg: expected a bucket curled out" \
   --scenario "$tmp/no-dump.yaml" --planner nonuniform --cycle
 
-if [ "$failures" -eq 0 ]; then
-  echo "mgc-plan --cycle: all checks passed"
-  exit 0
-fi
-exit 1
+finish "mgc-plan --cycle"

@@ -7,22 +7,10 @@ set -u
 sim="$1"
 busmon="$2"
 root="$3"
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+cli="$sim"
+source "$(dirname "$0")/cli_support.sh"
 scenario="$root/scenarios/thesis-steel-frame.yaml"
 
-# expect_bad <name> <regex for the single stderr line> <mgc-sim args...>
-expect_bad() {
-  local name="$1" pattern="$2"
-  shift 2
-  "$sim" "$@" >"$tmp/out" 2>"$tmp/err"
-  local code=$?
-  [ "$code" -eq 2 ] || fail "$name: exit $code, expected 2"
-  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "$name: expected one line on stderr, got: $(cat "$tmp/err")"
-  grep -Eq "$pattern" "$tmp/err" || fail "$name: stderr '$(cat "$tmp/err")' does not match '$pattern'"
-}
 
 "$sim" --help >/dev/null || fail "--help exits non-zero"
 expect_bad "unknown fault" 'fault "encoder-melt:swing": unknown kind' --scenario "$scenario" --fault encoder-melt:swing --duration 1
@@ -71,5 +59,4 @@ run_pair dropout 1 --fault encoder-dropout:cable_length@1
 grep -q 'joint cable_length .* stale' "$tmp/dropout.out" || fail "dropout: cable_length not stale: $(tail -12 "$tmp/dropout.out")"
 grep -q 'joint swing .* alive' "$tmp/dropout.out" || fail "dropout: swing should stay alive"
 
-[ "$failures" -eq 0 ] && echo "mgc-sim CLI: all checks passed"
-exit $((failures > 0))
+finish "mgc-sim CLI"

@@ -1,0 +1,28 @@
+# SPDX-License-Identifier: Apache-2.0
+# Shared by the command-line tests: a scratch folder, failure counting, and the bad-input contract
+# (exit 2, exactly one line on stderr matching a pattern). Source it after setting $cli to the
+# program under test.
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+# expect_bad <name> <regex for the single stderr line> <args...>
+expect_bad() {
+  local name="$1" pattern="$2"
+  shift 2
+  "$cli" "$@" >"$tmp/out" 2>"$tmp/err"
+  local code=$?
+  [ "$code" -eq 2 ] || fail "$name: exit $code, expected 2"
+  [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "$name: expected one line on stderr, got: $(cat "$tmp/err")"
+  grep -Eq "$pattern" "$tmp/err" || fail "$name: stderr '$(cat "$tmp/err")' does not match '$pattern'"
+}
+
+# finish <what>: prints the verdict and exits 0 when nothing failed.
+finish() {
+  if [ "$failures" -eq 0 ]; then
+    echo "$1: all checks passed"
+    exit 0
+  fi
+  exit 1
+}
