@@ -1,21 +1,39 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# The main job, as far as mgc goes today: build, then load every shipped scenario, validate it,
-# report start/goal feasibility, clearances and whether the straight joint-space line is blocked,
-# and plan the lift with the thesis's planner (limcon), writing each plan to build/demo/.
-# Installs missing Debian packages.
+# The main job, as far as mgc goes today: build; load every shipped scenario, validate it, report
+# start/goal feasibility, clearances and whether the straight joint-space line is blocked, and plan
+# the lift with the thesis's planner (limcon) -- and the excavator's work cycle with nonuniform --
+# writing each plan to build/demo/; then put the thesis site's crane on a CAN bus (mgc-sim, UDP on
+# loopback) and read it through the controller's Hal (mgc-busmon) for a few seconds, with the true
+# state logged to build/demo/truth.csv. Installs missing Debian packages.
 set -euo pipefail
 source "$(dirname "$0")/lib/common.sh"
 mgc_install_packages
-mgc_build mgc-plan
+mgc_build mgc-plan mgc-sim mgc-busmon
+bin="$MGC_BUILD_DIR/bin"
+out="$MGC_BUILD_DIR/demo"
+mkdir -p "$out"
 status=0
 for scenario in "$MGC_ROOT"/scenarios/*.yaml; do
-  echo "=== mgc-plan --scenario ${scenario#"$MGC_ROOT"/} --check"
-  "$MGC_BUILD_DIR/bin/mgc-plan" --scenario "$scenario" --check || status=$?
+  rel="${scenario#"$MGC_ROOT"/}"
   name="$(basename "$scenario" .yaml)"
-  mkdir -p "$MGC_BUILD_DIR/demo"
-  echo "=== mgc-plan --scenario ${scenario#"$MGC_ROOT"/} --planner limcon --json build/demo/$name.json"
-  "$MGC_BUILD_DIR/bin/mgc-plan" --scenario "$scenario" --planner limcon --json "$MGC_BUILD_DIR/demo/$name.json" || status=$?
+  echo "=== mgc-plan --scenario $rel --check"
+  "$bin/mgc-plan" --scenario "$scenario" --check || status=$?
+  echo "=== mgc-plan --scenario $rel --planner limcon --json build/demo/$name.json"
+  "$bin/mgc-plan" --scenario "$scenario" --planner limcon --json "$out/$name.json" || status=$?
+  if grep -q '^work_cycle:' "$scenario"; then
+    echo "=== mgc-plan --scenario $rel --planner nonuniform --cycle --json build/demo/$name-cycle.json"
+    "$bin/mgc-plan" --scenario "$scenario" --planner nonuniform --cycle --json "$out/$name-cycle.json" || status=$?
+  fi
   echo
 done
+
+site="$MGC_ROOT/scenarios/thesis-steel-frame.yaml"
+echo "=== mgc-sim --scenario scenarios/thesis-steel-frame.yaml (UDP on loopback), read by mgc-busmon --start"
+"$bin/mgc-sim" --scenario "$site" --duration 4 --truth-csv "$out/truth.csv" &
+sim_pid=$!
+sleep 0.3
+"$bin/mgc-busmon" --scenario "$site" --start --duration 3 --require-valid || status=$?
+wait "$sim_pid" || status=$?
+echo "true machine state: build/demo/truth.csv ($(($(wc -l <"$out/truth.csv") - 1)) rows)"
 exit "$status"

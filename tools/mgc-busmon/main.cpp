@@ -92,6 +92,7 @@ int main(int argc, char** argv) {
   std::int64_t next = t0;
   std::int64_t next_print = t0 + static_cast<std::int64_t>(print_every_s * 1e6);
   bool started = false;
+  bool printed_last = false;
   const mgc::hal::SensorSnapshot* s = nullptr;
   while (clock.now_us() - t0 < static_cast<std::int64_t>(duration_s * 1e6)) {
     std::this_thread::sleep_for(std::chrono::microseconds(std::max<std::int64_t>(0, next - clock.now_us())));
@@ -103,13 +104,14 @@ int main(int argc, char** argv) {
       for (std::size_t j = 0; j < s->num_joints; ++j) all_heard = all_heard && s->encoders[j].heard;
       if (all_heard) started = hal.send_nmt(mgc::hal::canopen::NmtCommand::Start, 0) == mgc::hal::Status::Ok;
     }
-    if (now >= next_print) {
+    printed_last = now >= next_print;
+    if (printed_last) {
       print(*s, scenario, static_cast<double>(now - t0) / 1e6);
       next_print += static_cast<std::int64_t>(print_every_s * 1e6);
     }
     next += period_us;
   }
-  if (s != nullptr) print(*s, scenario, static_cast<double>(clock.now_us() - t0) / 1e6);
+  if (s != nullptr && !printed_last) print(*s, scenario, static_cast<double>(clock.now_us() - t0) / 1e6);
   if (require_valid && (s == nullptr || !s->all_joints_valid())) {
     std::fprintf(stderr, "mgc-busmon: not every joint is valid at the end\n");
     return 1;
