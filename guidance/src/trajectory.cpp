@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 namespace mgc::guidance {
@@ -57,7 +58,11 @@ struct Member {
   double duration = 0.0;  //!< [s]
 };
 
+//! Which family a candidate belongs to.
+enum class Shape : std::uint8_t { PeakVelocity, EarlyTurn };
+
 struct Family {
+  static constexpr Shape kShape = Shape::PeakVelocity;
   double v0, a0, a_max, j_max;
 
   [[nodiscard]] Member at(double vp) const noexcept {
@@ -68,19 +73,40 @@ struct Family {
   }
 };
 
+//! The profiles whose acceleration does not pass through zero before the stop (Ruckig's UDDU with
+//! an empty cruise and a first jerk phase too short to bring the acceleration to zero): from
+//! a0 != 0, jerk towards zero for t1 < |a0|/j_max, then the velocity change to rest, which drives
+//! the acceleration away from zero again and back. The peak-velocity family cannot hold them: it
+//! only splits a profile where the acceleration is zero. Parameter: t1 [s]. Only used when the
+//! velocity at zero acceleration keeps the sign it would stop from (v_az * a0 < 0), which makes the
+//! change to rest push the acceleration further the same way, so the velocity stays between v0 and 0.
+struct EarlyTurn {
+  static constexpr Shape kShape = Shape::EarlyTurn;
+  double v0, a0, a_max, j_max;
+
+  [[nodiscard]] Member at(double t1) const noexcept {
+    const JointState turn = advance({0.0, v0, a0}, a0 < 0.0 ? j_max : -j_max, t1);
+    const VelocityChange c = velocity_change(turn.velocity, turn.acceleration, 0.0, a_max, j_max);
+    const JointState end = apply(turn, c);
+    return {end.position, t1 + c.t1 + c.t2 + c.t3};
+  }
+};
+
 //! Peak velocity of piece [lo, hi] at u in [0, 1]: a smoothstep, so that square-root behaviour at
 //! either end becomes smooth in u.
 double piece_vp(double lo, double hi, double u) noexcept { return lo + (hi - lo) * (u * u * (3.0 - 2.0 * u)); }
 
+template <class F>
 struct PieceFunction {
-  const Family* family;
+  const F* family;
   double lo, hi, distance;
   [[nodiscard]] double operator()(double u) const noexcept { return family->at(piece_vp(lo, hi, u)).distance - distance; }
 };
 
 //! Root of f in [ua, ub] where f(ua), f(ub) differ in sign: Illinois regula falsi with a bisection
 //! step whenever the bracket shrinks too slowly, to the last representable u.
-double bracketed_root(const PieceFunction& f, double ua, double fa, double ub, double fb) noexcept {
+template <class F>
+double bracketed_root(const PieceFunction<F>& f, double ua, double fa, double ub, double fb) noexcept {
   int side = 0;
   for (int i = 0; i < 200; ++i) {
     const double width = ub - ua;
@@ -106,20 +132,23 @@ double bracketed_root(const PieceFunction& f, double ua, double fa, double ub, d
 
 struct Best {
   double duration = std::numeric_limits<double>::infinity();  //!< [s]
-  double vp = 0.0;             //!< [m/s]
+  double vp = 0.0;             //!< [m/s] peak velocity, or [s] the turn time t1 of an EarlyTurn
   double cruise = 0.0;         //!< [s]
+  Shape shape = Shape::PeakVelocity;
 };
 
-void consider_root(const Family& family, double vp, Best& best) noexcept {
-  const double duration = family.at(vp).duration;
-  if (duration < best.duration) best = {duration, vp, 0.0};
+template <class F>
+void consider_root(const F& family, double x, Best& best) noexcept {
+  const double duration = family.at(x).duration;
+  if (duration < best.duration) best = {duration, x, 0.0, F::kShape};
 }
 
 //! All roots of D(vp) = distance on one piece: sign changes over a sample grid, plus a search of
 //! each grid-level local minimum of |f| for a pair of roots between two samples (a near tangency).
-void search_piece(const Family& family, double lo, double hi, double distance, Best& best) noexcept {
+template <class F>
+void search_piece(const F& family, double lo, double hi, double distance, Best& best) noexcept {
   constexpr int kSamples = 8;
-  const PieceFunction f{&family, lo, hi, distance};
+  const PieceFunction<F> f{&family, lo, hi, distance};
   std::array<double, kSamples + 1> fs{};
   for (int i = 0; i <= kSamples; ++i) fs[static_cast<std::size_t>(i)] = f(static_cast<double>(i) / kSamples);
   for (int i = 0; i <= kSamples; ++i) {
@@ -226,9 +255,9 @@ bool append_brake(const JointLimits& lim, Profile& out) noexcept {
 
 }  // namespace
 
-CalculationResult calculate_time_optimal(const JointState& start, double target_position, const JointLimits& limits,
-                                         Profile& out) noexcept {
-  out.reset(start);
+namespace {
+
+CalculationResult validate(const JointState& start, const JointLimits& limits) noexcept {
   const auto invalid = [](InvalidField f) { return CalculationResult{TrajectoryStatus::ErrorInvalidInput, f}; };
   if (!(finite(limits.max_velocity) && limits.max_velocity > 0.0)) return invalid(InvalidField::MaxVelocity);
   if (!(finite(limits.max_acceleration) && limits.max_acceleration > 0.0)) return invalid(InvalidField::MaxAcceleration);
@@ -236,7 +265,30 @@ CalculationResult calculate_time_optimal(const JointState& start, double target_
   if (!finite(start.position)) return invalid(InvalidField::CurrentPosition);
   if (!finite(start.velocity)) return invalid(InvalidField::CurrentVelocity);
   if (!finite(start.acceleration)) return invalid(InvalidField::CurrentAcceleration);
-  if (!finite(target_position)) return invalid(InvalidField::TargetPosition);
+  return {};
+}
+
+}  // namespace
+
+CalculationResult calculate_stop(const JointState& start, const JointLimits& limits, Profile& out) noexcept {
+  out.reset(start);
+  if (const CalculationResult r = validate(start, limits); !r.ok()) return r;
+  if (!append_brake(limits, out)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  out.brake_phase_count = out.phase_count();
+  const JointState& s = out.end_state();
+  const double a = std::clamp(s.acceleration, -limits.max_acceleration, limits.max_acceleration);
+  const VelocityChange c = velocity_change(s.velocity, a, 0.0, limits.max_acceleration, limits.max_jerk);
+  if (!(out.append(c.t1, c.jerk) && out.append(c.t2, 0.0) && out.append(c.t3, -c.jerk))) {
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  return {};
+}
+
+CalculationResult calculate_time_optimal(const JointState& start, double target_position, const JointLimits& limits,
+                                         Profile& out) noexcept {
+  out.reset(start);
+  if (const CalculationResult r = validate(start, limits); !r.ok()) return r;
+  if (!finite(target_position)) return {TrajectoryStatus::ErrorInvalidInput, InvalidField::TargetPosition};
 
   if (!append_brake(limits, out)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   out.brake_phase_count = out.phase_count();
@@ -251,7 +303,7 @@ CalculationResult calculate_time_optimal(const JointState& start, double target_
   for (const double vp : {v_max, -v_max}) {  // cruise members
     const Member m = family.at(vp);
     const double cruise = (distance - m.distance) / vp;
-    if (cruise >= 0.0 && m.duration + cruise < best.duration) best = {m.duration + cruise, vp, cruise};
+    if (cruise >= 0.0 && m.duration + cruise < best.duration) best = {m.duration + cruise, vp, cruise, Shape::PeakVelocity};
   }
   // Breakpoints of D(vp): zero acceleration reached at once, plateaus begin, zero peak velocity.
   const double v_az = s.velocity + s.acceleration * std::abs(s.acceleration) / (2.0 * j_max);
@@ -263,11 +315,33 @@ CalculationResult calculate_time_optimal(const JointState& start, double target_
   for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
     if (cuts[i + 1] > cuts[i]) search_piece(family, cuts[i], cuts[i + 1], distance, best);
   }
+  const double a0 = s.acceleration;
+  if ((a0 < 0.0 && v_az > 0.0) || (a0 > 0.0 && v_az < 0.0)) {
+    // Mirrored so that a0 < 0: the change to rest after the turn reaches the plateau where
+    // j^2 t1^2 + 2 j a0 t1 + j v0 + a0^2/2 - a_max^2 = 0 (its peak acceleration squared is j v + a^2/2).
+    const double am = -std::abs(a0), vm = a0 < 0.0 ? s.velocity : -s.velocity;
+    const double t_zero = -am / j_max;
+    const EarlyTurn turn{s.velocity, a0, a_max, j_max};
+    std::array<double, 4> turn_cuts{0.0, t_zero, t_zero, t_zero};
+    const double disc = a_max * a_max - j_max * vm + am * am / 2.0;
+    if (disc >= 0.0) {
+      turn_cuts[1] = std::clamp((-am - std::sqrt(disc)) / j_max, 0.0, t_zero);
+      turn_cuts[2] = std::clamp((-am + std::sqrt(disc)) / j_max, 0.0, t_zero);
+    }
+    std::sort(turn_cuts.begin(), turn_cuts.end());
+    for (std::size_t i = 0; i + 1 < turn_cuts.size(); ++i) {
+      if (turn_cuts[i + 1] > turn_cuts[i]) search_piece(turn, turn_cuts[i], turn_cuts[i + 1], distance, best);
+    }
+  }
   if (!std::isfinite(best.duration)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
 
-  const VelocityChange c1 = velocity_change(s.velocity, s.acceleration, best.vp, a_max, j_max);
-  if (!(out.append(c1.t1, c1.jerk) && out.append(c1.t2, 0.0) && out.append(c1.t3, -c1.jerk))) {
-    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  if (best.shape == Shape::EarlyTurn) {
+    if (!out.append(best.vp, a0 < 0.0 ? j_max : -j_max)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  } else {
+    const VelocityChange c1 = velocity_change(s.velocity, s.acceleration, best.vp, a_max, j_max);
+    if (!(out.append(c1.t1, c1.jerk) && out.append(c1.t2, 0.0) && out.append(c1.t3, -c1.jerk))) {
+      return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+    }
   }
   // The cruise and the final velocity change are built from the state actually reached, and a
   // cruise is re-timed once from the position error: over a long cruise, a velocity rounding error

@@ -7,10 +7,13 @@
 // exactly T ending at rest; those extremes are found by a dense grid over the peak velocity, with
 // the grid's feasibility boundaries bisected and its local extrema golden-section searched. The
 // velocity changes are built by trying both jerk directions, not by the library's direction rule.
+// Two families of profiles feed the extremes: a change to a peak velocity vp, a cruise at vp, a
+// change to rest; and a short turn of the acceleration towards zero followed by a change to rest.
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace mgc::test {
 
@@ -62,18 +65,43 @@ struct RefProblem {
     return {c1.duration + c2.duration, c1.distance + c2.distance};
   }
 
-  //! Greatest (sign = 1) or, negated, least (sign = -1) distance ending at rest in exactly T.
-  double extreme(double T, double sign, int grid) const {
-    const auto value = [&](double vp, bool& ok) {
-      const RefChange m = member(vp);
-      ok = m.duration <= T;
-      return sign * m.distance + std::max(0.0, sign * vp) * (T - m.duration);
-    };
-    double best = -std::numeric_limits<double>::infinity();
+  //! A profile that first jerks the acceleration towards zero for t1 in [0, |a0|/j_max] without
+  //! reaching it, then changes to rest (no cruise). Its acceleration never passes through zero
+  //! before the stop, so no peak velocity describes it. Distance by the per-phase formulas.
+  RefChange turn_member(double t1) const {
+    const double j = a0 < 0.0 ? j_max : -j_max;
+    const double x1 = v0 * t1 + a0 * t1 * t1 / 2.0 + j * t1 * t1 * t1 / 6.0;
+    const double v1 = v0 + a0 * t1 + j * t1 * t1 / 2.0;
+    const double a1 = a0 + j * t1;
+    const RefChange c = ref_change(v1, a1, 0.0, a_max, j_max);
+    return {t1 + c.duration, x1 + c.distance};
+  }
+
+  //! The turn members stay within the velocity limits when the stop that follows the turn pushes
+  //! the acceleration further from zero (the velocity then moves monotonically from v0 to 0): when
+  //! ramping the acceleration to zero at once would leave a velocity of the sign opposite to a0.
+  bool turn_family_valid() const {
+    const double v_at_zero_a = v0 + a0 * std::abs(a0) / (2.0 * j_max);
+    return a0 * v_at_zero_a < 0.0;
+  }
+
+  //! Largest value(x) over x in [lo, hi] among the feasible x (value sets ok): a dense grid plus
+  //! the extra points, its feasibility boundaries bisected, its interior local maxima
+  //! golden-section searched. The extra points are the cusps where the duration has a local
+  //! minimum: just above that duration the feasible x form an island narrower than the grid.
+  template <class Value>
+  static double scan(double lo_x, double hi_x, int grid, std::vector<double> extra, const Value& value) {
+    std::vector<double> xs;
+    for (int i = 0; i <= grid; ++i) xs.push_back(lo_x + (hi_x - lo_x) * i / grid);
+    for (const double x : extra) {
+      if (x > lo_x && x < hi_x) xs.push_back(x);
+    }
+    std::sort(xs.begin(), xs.end());
+    double best = -kInf;
     double prev_vp = 0.0, prev_val = 0.0, prev2_vp = 0.0, prev2_val = 0.0;
     bool prev_ok = false, prev2_ok = false;
-    for (int i = 0; i <= grid; ++i) {
-      const double vp = -v_max + 2.0 * v_max * i / grid;
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+      const double vp = xs[i];
       bool ok = false;
       const double val = value(vp, ok);
       if (ok) best = std::max(best, val);
@@ -97,7 +125,7 @@ struct RefProblem {
         double c = b - r * (b - a), d = a + r * (b - a);
         bool okc = false, okd = false;
         double fc = value(c, okc), fd = value(d, okd);
-        for (int k = 0; k < 100 && b - a > 1e-17 * v_max; ++k) {
+        for (int k = 0; k < 100 && b - a > 1e-17 * (hi_x - lo_x); ++k) {
           if ((okc ? fc : -kInf) > (okd ? fd : -kInf)) {
             b = d; d = c; fd = fc; okd = okc; c = b - r * (b - a); fc = value(c, okc);
           } else {
@@ -109,6 +137,28 @@ struct RefProblem {
       }
       prev2_vp = prev_vp; prev2_val = prev_val; prev2_ok = prev_ok;
       prev_vp = vp; prev_val = val; prev_ok = ok;
+    }
+    return best;
+  }
+
+  //! Greatest (sign = 1) or, negated, least (sign = -1) distance ending at rest in exactly T (a
+  //! profile ending early holds still at rest until T).
+  double extreme(double T, double sign, int grid) const {
+    const auto peak_value = [&](double vp, bool& ok) {
+      const RefChange m = member(vp);
+      ok = m.duration <= T;
+      return sign * m.distance + std::max(0.0, sign * vp) * (T - m.duration);
+    };
+    // Cusps of the duration: the first change empty (vp at zero acceleration), the second empty.
+    const double v_at_zero_a = v0 + a0 * std::abs(a0) / (2.0 * j_max);
+    double best = scan(-v_max, v_max, grid, {v_at_zero_a, 0.0}, peak_value);
+    if (turn_family_valid()) {
+      const auto turn_value = [&](double t1, bool& ok) {
+        const RefChange m = turn_member(t1);
+        ok = m.duration <= T;
+        return sign * m.distance;
+      };
+      best = std::max(best, scan(0.0, std::abs(a0) / j_max, grid, {}, turn_value));
     }
     return sign * best;
   }

@@ -125,15 +125,23 @@ TEST_CASE("a million random profiles end at the target within the limits", "[pro
   CHECK(braked > count / 5);  // the beyond-limit starts really exercised the braking pre-phase
 }
 
-// Known gap, kept strict: in about 0.15% of the cases the reference finds a shorter profile. The
-// family searched lacks the UDUD profiles whose acceleration does not return to zero between the
-// two velocity changes (docs/trajectory.md, "Limitations"). [!shouldfail] turns this into a
-// failure the day the gap is closed, so that the tag is removed then.
-TEST_CASE("the duration equals the brute-force time-optimal one", "[oracle][!shouldfail]") {
+namespace {
+
+std::size_t oracle_count() {
+  if (const char* env = std::getenv("MGC_TRAJECTORY_ORACLE_CASES")) return static_cast<std::size_t>(std::atoll(env));
+  return 2000;
+}
+
+}  // namespace
+
+// Both the solver and the reference search the profiles whose acceleration turns towards zero
+// without reaching it before the stop (docs/trajectory.md); without them each was up to 20% slow.
+TEST_CASE("the duration equals the brute-force time-optimal one", "[oracle]") {
   std::mt19937_64 rng(7);
   Profile profile;
   int worse = 0;
-  for (int n = 0; n < 2000; ++n) {
+  const std::size_t count = oracle_count();
+  for (std::size_t n = 0; n < count; ++n) {
     const Problem p = random_problem(rng);
     REQUIRE(calculate_time_optimal(p.start, p.target, p.limits, profile).ok());
     // Optimality is claimed from the end of the braking pre-phase on (as in Ruckig).

@@ -27,6 +27,9 @@ enum class InvalidField : std::int8_t {
   CurrentAcceleration,
   TargetPosition,
   Duration,
+  CycleTime,    //!< the online cycle time dt_s
+  JointCount,   //!< no joints, or more than the online wrapper holds
+  MovingJoint,  //!< the selected joint is not one of the joints
 };
 
 //! Symmetric kinematic limits of one joint: |v| <= max_velocity, |a| <= max_acceleration, |j| <= max_jerk.
@@ -50,5 +53,9 @@ struct CalculationResult {
 //! (docs/trajectory.md). RT-safe: no alloc, no lock, no throw.
 [[nodiscard]] CalculationResult calculate_time_optimal(const JointState& start, double target_position,
                                                        const JointLimits& limits, Profile& out) noexcept;
+
+//! Time-optimal stop of one joint: the braking pre-phase if needed, then the fastest velocity change
+//! to rest (wherever it ends). RT-safe.
+[[nodiscard]] CalculationResult calculate_stop(const JointState& start, const JointLimits& limits, Profile& out) noexcept;
 
 }  // namespace mgc::guidance
