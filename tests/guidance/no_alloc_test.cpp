@@ -2,11 +2,13 @@
 // Trajectory calculation and sampling run in the control cycle: they must not touch the heap.
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <memory>
 #include <cmath>
 #include <random>
 
 #include "allocation_counter.hpp"
+#include "mgc/guidance/online.hpp"
 #include "mgc/guidance/trajectory.hpp"
 
 using namespace mgc::guidance;
@@ -32,4 +34,29 @@ TEST_CASE("calculate_time_optimal and Profile::at_time do not allocate", "[unit]
   }
   CHECK(mgc::test::allocation_count() == before);
   CHECK(std::isfinite(sink));
+}
+
+TEST_CASE("the online trajectory and the one-joint-at-a-time wrapper do not allocate", "[unit]") {
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  JointTrajectory online;
+  OneJointAtATime joints;
+  std::array<JointState, OneJointAtATime::kMaxJoints> current{}, next{};
+  std::array<JointLimits, OneJointAtATime::kMaxJoints> limits{};
+  JointState state{}, out{};
+  const long before = mgc::test::allocation_count();
+  for (int n = 0; n < 5000; ++n) {
+    // A new target every 50 cycles, and a new selected joint: recalculations and latched holds.
+    const double target = 3.0 * u(rng);
+    const JointLimits lim{1.0 + 0.5 * u(rng), 2.0 + u(rng), 5.0 + u(rng)};
+    for (int c = 0; c < 50; ++c) {
+      (void)online.update(state, target, lim, 0.01, out);
+      state = out;
+      (void)joints.update(current.data(), limits.data(), current.size(), static_cast<std::size_t>(n) % current.size(),
+                          target, 0.01, next.data());
+      current = next;
+    }
+  }
+  CHECK(mgc::test::allocation_count() == before);
+  CHECK(std::isfinite(state.position + current[0].position));
 }
