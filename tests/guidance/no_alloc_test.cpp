@@ -13,13 +13,6 @@
 
 using namespace mgc::guidance;
 
-TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
-  const long before = mgc::test::allocation_count();
-  auto p = std::make_unique<int>(42);
-  CHECK(*p == 42);
-  CHECK(mgc::test::allocation_count() > before);
-}
-
 TEST_CASE("calculate_time_optimal and Profile::at_time do not allocate", "[unit]") {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(-1.0, 1.0);

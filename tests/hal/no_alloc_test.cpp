@@ -16,13 +16,6 @@
 
 using namespace mgc::hal;
 
-TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
-  const long before = mgc::test::allocation_count();
-  auto p = std::make_unique<int>(42);
-  CHECK(*p == 42);
-  CHECK(mgc::test::allocation_count() > before);
-}
-
 TEST_CASE("send, receive and the codec do not allocate after warm-up", "[unit][transport]") {
   const std::string kind = GENERATE(as<std::string>{}, "loop", "udp");
   CAPTURE(kind);

@@ -13,13 +13,6 @@
 
 using namespace mgc::planning;
 
-TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
-  const long before = mgc::test::allocation_count();
-  auto p = std::make_unique<int>(42);
-  CHECK(*p == 42);
-  CHECK(mgc::test::allocation_count() > before);
-}
-
 TEST_CASE("collision queries and dynamic moves do not allocate after finalize", "[unit]") {
   for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
     CAPTURE(name);

