@@ -1,0 +1,93 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "mgc/guidance/envelope.hpp"
+#include "mgc/guidance/trajectory.hpp"
+#include "mgc/planning/collision_world.hpp"
+
+namespace mgc::guidance {
+
+//! Outcome of the short-horizon stop check.
+enum class StopCheckStatus : std::int8_t {
+  Clear = 0,     //!< the stopping motion keeps more than the warning margin everywhere
+  Warning = 1,   //!< within the warning margin: scale the commanded speed by speed_scale
+  Stop = 2,      //!< within the stop margin (or across an envelope limit): stop now and re-plan
+  ErrorInput = -1,  //!< a state or limit the stop calculation refused: treated as Stop by callers
+};
+
+[[nodiscard]] const char* to_string(StopCheckStatus status) noexcept;
+
+struct StopCheckConfig {
+  //! Clearance (beyond the world's dilation) the stopping motion must keep; below it: Stop. Covers
+  //! the UWB position error of 0.1-0.3 m and a cycle of latency (DOMAIN-FACTS §3.1). [m]
+  double stop_margin_m = 0.5;
+  //! Below this clearance along the stop: Warning, speed scaled linearly from 1 here to 0 at the
+  //! stop margin. PMERail puts the tool under system control within 1 m of a limit (DOMAIN-FACTS
+  //! §4.4). Clearance counts every machine body, the parked carrier too, so a wider margin would
+  //! keep a machine set up next to a structure in Warning for good (the thesis site: carrier 1.15 m
+  //! from the frame). [m]
+  double warning_margin_m = 1.0;
+  //! How fast a dynamic obstacle may move toward us; its clearance is reduced by this times the
+  //! stop duration. A second crane's boom tip slewing at ~4 deg/s at 15-20 m radius. [m/s]
+  double dynamic_obstacle_speed_m_s = 1.0;
+  //! Most a body point moves between two samples of the stopping motion; the reported minimum
+  //! clearance is the sampled one less half of this, so it bounds the continuous motion. [m]
+  double sample_step_m = 0.1;
+  //! Cap on samples per check (bounded work per cycle); when reached the step grows, and the
+  //! conservative clearance with it. [-]
+  int max_samples = 64;
+  //! The envelope may be crossed by at most this along the stop (0: not at all). [m]
+  double envelope_stop_margin_m = 0.0;
+};
+
+//! The machine's current state, one entry per joint (positions in the joint's unit).
+struct MachineState {
+  std::array<JointState, kMaxJoints> joints{};
+};
+
+struct StopCheckResult {
+  StopCheckStatus status = StopCheckStatus::Clear;
+  double speed_scale = 1.0;       //!< [0, 1] for the commanded speed
+  bool replan = false;            //!< Stop: the supervisor should re-plan
+  double stop_duration_s = 0.0;   //!< time to rest under the braking limits [s]
+  planning::JointVector stop_position;  //!< where the machine comes to rest
+  //! Least clearance along the stop, conservative (sampled minimum less half the sample step, and
+  //! dynamic obstacles less their reach during the stop). [m]
+  double min_clearance_m = 0.0;
+  planning::Clearance nearest;    //!< what is nearest at that sample
+  double nearest_time_s = 0.0;    //!< [s] into the stop
+  EnvelopeDistance envelope;      //!< least envelope distance along the stop (None: no envelope)
+  int samples = 0;                //!< configurations checked
+  TrajectoryStatus calculation = TrajectoryStatus::Working;  //!< of the stop profiles
+  int invalid_joint = -1;         //!< ErrorInput: the joint
+};
+
+//! Short-horizon safety check, every cycle: from the current state the time-optimal stop of every
+//! joint under its braking limits (calculate_stop), sampled so that no body point moves more than
+//! sample_step_m between samples (the model's displacement bounds times each joint's peak speed in
+//! the stop), each sample's clearance to the static and dynamic obstacles (at the poses the caller
+//! set this cycle) and, if given, its envelope distance. RT-safe after construction: no allocation,
+//! no throw. Not thread-safe (it poses the world's machine).
+class StopCheck {
+ public:
+  //! world (and the model behind it) and envelope (may be null) must outlive the check.
+  StopCheck(planning::CollisionWorld& world, Envelope* envelope, const StopCheckConfig& config) noexcept;
+
+  [[nodiscard]] StopCheckResult check(const MachineState& state) noexcept;
+
+  [[nodiscard]] const StopCheckConfig& config() const noexcept { return config_; }
+  //! The braking profile of joint j from the last check.
+  [[nodiscard]] const Profile& stop_profile(int j) const noexcept { return profiles_[static_cast<std::size_t>(j)]; }
+
+ private:
+  planning::CollisionWorld& world_;
+  Envelope* envelope_;
+  StopCheckConfig config_;
+  std::array<JointLimits, kMaxJoints> limits_{};
+  std::array<Profile, kMaxJoints> profiles_{};
+};
+
+}  // namespace mgc::guidance

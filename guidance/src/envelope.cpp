@@ -1,0 +1,193 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/guidance/envelope.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace mgc::guidance {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+//! Angle in [0, 2 pi). [rad]
+double wrap_positive(double angle_rad) noexcept {
+  const double a = std::fmod(angle_rad, kTwoPi);
+  return a < 0.0 ? a + kTwoPi : a;
+}
+
+//! A gradient entry below this is rounding noise of the central difference (values of tens of
+//! metres, step 1e-5: ~1e-10), not an effect of the joint; counting it would cut joints that do
+//! not move the point toward the limit. [m per rad | m per m]
+constexpr double kGradientTolerance = 1e-6;
+
+}  // namespace
+
+const char* to_string(EnvelopeLimit limit) noexcept {
+  switch (limit) {
+    case EnvelopeLimit::None: return "none";
+    case EnvelopeLimit::HeightCeiling: return "height ceiling";
+    case EnvelopeLimit::DepthFloor: return "depth floor";
+    case EnvelopeLimit::SlewLeft: return "slew left";
+    case EnvelopeLimit::SlewRight: return "slew right";
+    case EnvelopeLimit::RadiusMin: return "minimum radius";
+    case EnvelopeLimit::RadiusMax: return "maximum radius";
+    case EnvelopeLimit::Wall: return "virtual wall";
+  }
+  return "unknown";
+}
+
+Envelope::Envelope(const planning::MachineModel& model, const EnvelopeConfig& config) noexcept
+    : model_(model), config_(config) {
+  config_.point_count = std::clamp(config_.point_count, 0, EnvelopeConfig::kMaxPoints);
+  config_.wall_count = std::clamp(config_.wall_count, 0, EnvelopeConfig::kMaxWalls);
+}
+
+template <typename Visit>
+void Envelope::for_each_limit(const Eigen::Vector3d& p_world, const std::array<Eigen::Vector3d, kMaxJoints>* dp,
+                              int point, Visit&& visit) const noexcept {
+  const int n = model_.dof();
+  std::array<double, kMaxJoints> grad{};
+  const auto emit = [&](EnvelopeLimit limit, int wall, double distance_m) {
+    visit(EnvelopeDistance{limit, point, wall, distance_m}, grad);
+  };
+  const Eigen::Isometry3d& world_from_base = model_.world_from_base();
+  const Eigen::Matrix3d base_from_world_rot = world_from_base.linear().transpose();
+  const Eigen::Vector3d p_base = world_from_base.inverse() * p_world;
+  const auto dp_base = [&](int j) -> Eigen::Vector3d { return base_from_world_rot * (*dp)[static_cast<std::size_t>(j)]; };
+  const auto dpw = [&](int j) -> const Eigen::Vector3d& { return (*dp)[static_cast<std::size_t>(j)]; };
+
+  if (config_.height_ceiling_enabled) {
+    for (int j = 0; dp && j < n; ++j) grad[static_cast<std::size_t>(j)] = -dpw(j).z();
+    emit(EnvelopeLimit::HeightCeiling, -1, config_.height_ceiling_m - p_world.z());
+  }
+  if (config_.depth_floor_enabled) {
+    for (int j = 0; dp && j < n; ++j) grad[static_cast<std::size_t>(j)] = dpw(j).z();
+    emit(EnvelopeLimit::DepthFloor, -1, p_world.z() - config_.depth_floor_m);
+  }
+  const double radius_m = std::hypot(p_base.x(), p_base.y());
+  if (config_.radius_min_enabled || config_.radius_max_enabled) {
+    // d r / dq = (x dx + y dy) / r; at the axis itself the radius has no direction: zero.
+    std::array<double, kMaxJoints> dr{};
+    for (int j = 0; dp && j < n && radius_m > 1e-9; ++j) {
+      const Eigen::Vector3d d = dp_base(j);
+      dr[static_cast<std::size_t>(j)] = (p_base.x() * d.x() + p_base.y() * d.y()) / radius_m;
+    }
+    if (config_.radius_min_enabled) {
+      grad = dr;
+      emit(EnvelopeLimit::RadiusMin, -1, radius_m - config_.radius_min_m);
+    }
+    if (config_.radius_max_enabled) {
+      for (int j = 0; j < n; ++j) grad[static_cast<std::size_t>(j)] = -dr[static_cast<std::size_t>(j)];
+      emit(EnvelopeLimit::RadiusMax, -1, config_.radius_max_m - radius_m);
+    }
+  }
+  if (config_.slew_enabled && radius_m >= config_.min_slew_radius_m) {
+    const double azimuth_rad = std::atan2(p_base.y(), p_base.x());
+    double span_rad = wrap_positive(config_.slew_left_rad - config_.slew_right_rad);
+    if (span_rad == 0.0) span_rad = kTwoPi;
+    const double off_rad = wrap_positive(azimuth_rad - config_.slew_right_rad);
+    double to_left_rad = span_rad - off_rad;
+    double to_right_rad = off_rad;
+    if (off_rad > span_rad) {
+      // Outside the sector: beyond whichever limit is nearer; the other is the long way round.
+      const double past_left_rad = off_rad - span_rad;
+      const double past_right_rad = kTwoPi - off_rad;
+      if (past_left_rad < past_right_rad) {
+        to_left_rad = -past_left_rad;
+        to_right_rad = span_rad + past_left_rad;
+      } else {
+        to_right_rad = -past_right_rad;
+        to_left_rad = span_rad + past_right_rad;
+      }
+    }
+    // d azimuth / dq = (x dy - y dx) / r^2; as arc length at the point's radius: times r.
+    std::array<double, kMaxJoints> daz_m{};
+    for (int j = 0; dp && j < n; ++j) {
+      const Eigen::Vector3d d = dp_base(j);
+      daz_m[static_cast<std::size_t>(j)] = (p_base.x() * d.y() - p_base.y() * d.x()) / radius_m;
+    }
+    for (int j = 0; j < n; ++j) grad[static_cast<std::size_t>(j)] = -daz_m[static_cast<std::size_t>(j)];
+    emit(EnvelopeLimit::SlewLeft, -1, to_left_rad * radius_m);
+    grad = daz_m;
+    emit(EnvelopeLimit::SlewRight, -1, to_right_rad * radius_m);
+  }
+  for (int w = 0; w < config_.wall_count; ++w) {
+    const EnvelopeWall& wall = config_.walls[static_cast<std::size_t>(w)];
+    for (int j = 0; dp && j < n; ++j) grad[static_cast<std::size_t>(j)] = wall.normal.dot(dpw(j));
+    emit(EnvelopeLimit::Wall, w, wall.normal.dot(p_world) - wall.offset_m);
+  }
+}
+
+EnvelopeDistance Envelope::nearest(const planning::JointVector& q) noexcept {
+  model_.forward_kinematics(q, kinematics_);
+  EnvelopeDistance best;
+  for (int i = 0; i < config_.point_count; ++i) {
+    const int point = config_.points[static_cast<std::size_t>(i)];
+    for_each_limit(kinematics_.points[static_cast<std::size_t>(point)], nullptr, point,
+                   [&](const EnvelopeDistance& d, const std::array<double, kMaxJoints>&) {
+                     if (best.limit == EnvelopeLimit::None || d.distance_m < best.distance_m) best = d;
+                   });
+  }
+  return best;
+}
+
+EnvelopeResult Envelope::limit_velocity(const planning::JointVector& q,
+                                        const planning::JointVector& commanded_velocity) noexcept {
+  const int n = model_.dof();
+  EnvelopeResult result;
+  result.allowed_velocity = commanded_velocity;
+  result.joint_scale.fill(1.0);
+  model_.forward_kinematics(q, kinematics_);
+
+  // d(point)/dq_j for every monitored point by central differences: 2 dof forward kinematics.
+  std::array<std::array<Eigen::Vector3d, kMaxJoints>, EnvelopeConfig::kMaxPoints> dp{};
+  const double h = config_.gradient_step;
+  planning::JointVector q_step = q;
+  for (int j = 0; j < n; ++j) {
+    q_step[j] = q[j] + h;
+    model_.forward_kinematics(q_step, kinematics_step_);
+    for (int i = 0; i < config_.point_count; ++i) {
+      const auto p = static_cast<std::size_t>(config_.points[static_cast<std::size_t>(i)]);
+      dp[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = kinematics_step_.points[p];
+    }
+    q_step[j] = q[j] - h;
+    model_.forward_kinematics(q_step, kinematics_step_);
+    for (int i = 0; i < config_.point_count; ++i) {
+      const auto p = static_cast<std::size_t>(config_.points[static_cast<std::size_t>(i)]);
+      auto& d = dp[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+      d = (d - kinematics_step_.points[p]) / (2.0 * h);
+    }
+    q_step[j] = q[j];
+  }
+
+  const double band_m = std::max(config_.slowdown_band_m, 1e-9);
+  for (int i = 0; i < config_.point_count; ++i) {
+    const int point = config_.points[static_cast<std::size_t>(i)];
+    for_each_limit(kinematics_.points[static_cast<std::size_t>(point)], &dp[static_cast<std::size_t>(i)], point,
+                   [&](const EnvelopeDistance& d, const std::array<double, kMaxJoints>& grad) {
+                     if (result.nearest.limit == EnvelopeLimit::None || d.distance_m < result.nearest.distance_m) {
+                       result.nearest = d;
+                     }
+                     if (d.distance_m < 0.0) result.violated = true;
+                     if (d.distance_m >= band_m) return;
+                     const double scale = std::clamp(d.distance_m / band_m, 0.0, 1.0);
+                     bool cuts = false;
+                     for (int j = 0; j < n; ++j) {
+                       const double g = grad[static_cast<std::size_t>(j)];
+                       // Only the component that approaches the limit is cut.
+                       if (std::abs(g) < kGradientTolerance || g * commanded_velocity[j] >= 0.0) continue;
+                       double& s = result.joint_scale[static_cast<std::size_t>(j)];
+                       s = std::min(s, scale);
+                       cuts = true;
+                     }
+                     if (cuts && (result.acting.limit == EnvelopeLimit::None || d.distance_m < result.acting.distance_m)) {
+                       result.acting = d;
+                     }
+                   });
+  }
+  for (int j = 0; j < n; ++j) result.allowed_velocity[j] = commanded_velocity[j] * result.joint_scale[static_cast<std::size_t>(j)];
+  return result;
+}
+
+}  // namespace mgc::guidance

@@ -1,0 +1,116 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/guidance/rated_capacity.hpp"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace mgc::guidance {
+namespace {
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+//! Keeps the chart's own boom lengths, converted from feet, inside their row (as LoadChartRule). [m]
+constexpr double kRowToleranceM = 1e-6;
+//! A radius gradient below this is rounding noise of the central difference. [m per rad | m per m]
+constexpr double kGradientTolerance = 1e-6;
+}  // namespace
+
+const char* to_string(RclStage stage) noexcept {
+  switch (stage) {
+    case RclStage::Normal: return "normal";
+    case RclStage::Warning: return "warning";
+    case RclStage::Overload: return "overload";
+    case RclStage::OutsideChart: return "outside chart";
+  }
+  return "unknown";
+}
+
+RatedCapacity rated_capacity(const planning::LoadChart& chart, double boom_length_m,
+                             double boom_elevation_rad) noexcept {
+  RatedCapacity out;
+  const std::size_t rows = chart.boom_lengths_ft.size();
+  std::size_t row = 0;
+  while (row < rows && boom_length_m > chart.boom_lengths_ft[row] * planning::kMetresPerFoot + kRowToleranceM) ++row;
+  if (row == rows) return out;
+  const double from_vertical_deg = 90.0 - boom_elevation_rad * kRadToDeg;
+  const auto& capacities = chart.capacity_lb[row];
+  const auto& angles = chart.max_angle_from_vertical_deg[row];
+  for (std::size_t c = 0; c < chart.radii_ft.size(); ++c) {
+    if (std::isnan(capacities[c]) || std::isnan(angles[c])) continue;
+    if (angles[c] >= from_vertical_deg) {
+      out.in_chart = true;
+      out.capacity_lb = capacities[c];
+      out.chart_row = static_cast<int>(row);
+      out.chart_column = static_cast<int>(c);
+      return out;
+    }
+  }
+  out.chart_row = static_cast<int>(row);
+  return out;
+}
+
+RatedCapacityLimiter::RatedCapacityLimiter(const planning::MobileCrane& crane, const RatedCapacityConfig& config) noexcept
+    : crane_(crane), config_(config) {}
+
+double RatedCapacityLimiter::task_load_lb() const noexcept {
+  const planning::LiftTask& task = crane_.task();
+  return task.load_lb * (100.0 + task.capacity_reduction_pct) / 100.0;
+}
+
+RatedCapacityResult RatedCapacityLimiter::limit_velocity(const planning::JointVector& q, double hook_load_lb,
+                                                         const planning::JointVector& commanded_velocity) noexcept {
+  using planning::MobileCrane;
+  RatedCapacityResult r;
+  r.load_lb = hook_load_lb;
+  r.allowed_velocity = commanded_velocity;
+  r.load_radius_m = crane_.load_radius_m(q);
+  r.rated = rated_capacity(crane_.chart(), q[MobileCrane::kBoomLength], q[MobileCrane::kBoomElevation]);
+  if (r.rated.in_chart && r.rated.capacity_lb > 0.0) {
+    r.utilisation = hook_load_lb / r.rated.capacity_lb;
+  } else {
+    r.utilisation = std::numeric_limits<double>::infinity();
+  }
+
+  if (!r.rated.in_chart) {
+    r.stage = RclStage::OutsideChart;
+  } else if (r.utilisation >= config_.cutoff_utilisation) {
+    r.stage = RclStage::Overload;
+    latched_ = true;
+  } else if (latched_ && r.utilisation >= config_.warning_utilisation) {
+    r.stage = RclStage::Overload;
+  } else if (r.utilisation >= config_.warning_utilisation) {
+    r.stage = RclStage::Warning;
+    latched_ = false;
+  } else {
+    r.stage = RclStage::Normal;
+    latched_ = false;
+  }
+
+  const int n = crane_.dof();
+  const double h = config_.gradient_step;
+  planning::JointVector q_step = q;
+  for (int j = 0; j < n; ++j) {
+    q_step[j] = q[j] + h;
+    const double up_m = crane_.load_radius_m(q_step);
+    q_step[j] = q[j] - h;
+    const double down_m = crane_.load_radius_m(q_step);
+    q_step[j] = q[j];
+    r.radius_gradient[static_cast<std::size_t>(j)] = (up_m - down_m) / (2.0 * h);
+  }
+
+  if (r.stage != RclStage::Overload && r.stage != RclStage::OutsideChart) return r;
+  for (int j = 0; j < n; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    const double v = commanded_velocity[j];
+    const double g = r.radius_gradient[k];
+    bool increases = std::abs(g) >= kGradientTolerance && g * v > 0.0;
+    // Hoist raising is a shorter cable.
+    if (j == MobileCrane::kCableLength && config_.cut_hoist_raise && v < 0.0) increases = true;
+    if (increases) {
+      r.cut[k] = true;
+      r.allowed_velocity[j] = 0.0;
+    }
+  }
+  return r;
+}
+
+}  // namespace mgc::guidance
