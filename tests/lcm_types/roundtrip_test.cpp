@@ -4,14 +4,19 @@
 // crosses the in-process memq:// transport.
 
 #include <mgc/alert_t.hpp>
+#include <mgc/command_status_t.hpp>
+#include <mgc/loop_timing_t.hpp>
 #include <mgc/machine_state_t.hpp>
+#include <mgc/operator_command_t.hpp>
 #include <mgc/operator_guidance_t.hpp>
+#include <mgc/operator_instruction_t.hpp>
 #include <mgc/plan_t.hpp>
 
 #include <lcm/lcm-cpp.hpp>
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -397,4 +402,121 @@ TEST_CASE("messages cross the memq:// transport to a subscriber", "[lcm]") {
   REQUIRE(receiver.plan.planner_name == sent_plan.planner_name);
   REQUIRE(receiver.plan.positions == sent_plan.positions);
   REQUIRE(receiver.plan.moving_joint == sent_plan.moving_joint);
+}
+
+// The operator feed's types (docs/operator-feed.md).
+
+TEST_CASE("operator_command_t round-trips every field and keeps mac last", "[unit]") {
+  static_assert(std::extent_v<decltype(mgc::operator_command_t::goal_position)> ==
+                mgc::operator_command_t::MAX_JOINTS);
+  static_assert(std::extent_v<decltype(mgc::operator_command_t::mac)> == mgc::operator_command_t::MAC_BYTES);
+  mgc::operator_command_t sent{};
+  sent.utime = 0x0102030405060708LL;
+  sent.kind = mgc::operator_command_t::KIND_GOAL;
+  sent.sender_id = -12345;
+  sent.sequence = 1'700'000'000'123'456LL;
+  sent.num_joints = 4;
+  for (int j = 0; j < 8; ++j) sent.goal_position[j] = 0.25 * (j + 1) - 1.0;
+  sent.alert_id = 42;
+  for (int i = 0; i < 32; ++i) sent.mac[i] = static_cast<std::uint8_t>(0xA0 + i);
+
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::operator_command_t>(buf);
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.kind == sent.kind);
+  REQUIRE(got.sender_id == sent.sender_id);
+  REQUIRE(got.sequence == sent.sequence);
+  REQUIRE(got.num_joints == sent.num_joints);
+  REQUIRE(as_array(got.goal_position) == as_array(sent.goal_position));
+  REQUIRE(got.alert_id == sent.alert_id);
+  REQUIRE(as_array(got.mac) == as_array(sent.mac));
+  // The MAC covers the encoding without its last 32 bytes, so those must be the mac field.
+  REQUIRE(std::equal(buf.end() - 32, buf.end(), std::begin(sent.mac)));
+  require_truncations_rejected<mgc::operator_command_t>(buf);
+}
+
+TEST_CASE("command_status_t round-trips every field", "[unit]") {
+  mgc::command_status_t sent{};
+  sent.utime = 77;
+  sent.sender_id = 3;
+  sent.sequence = -9;
+  sent.kind = mgc::operator_command_t::KIND_ACKNOWLEDGE;
+  sent.accepted = false;
+  sent.reason = mgc::command_status_t::REASON_STALE_SEQUENCE;
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::command_status_t>(buf);
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.sender_id == sent.sender_id);
+  REQUIRE(got.sequence == sent.sequence);
+  REQUIRE(got.kind == sent.kind);
+  REQUIRE(got.accepted == sent.accepted);
+  REQUIRE(got.reason == sent.reason);
+  require_truncations_rejected<mgc::command_status_t>(buf);
+}
+
+TEST_CASE("loop_timing_t round-trips every field", "[unit]") {
+  mgc::loop_timing_t sent{};
+  sent.utime = 1;
+  sent.period_us = 10'000;
+  sent.cycles = 123'456'789'012LL;
+  sent.deadline_misses = 3;
+  sent.skipped_periods = 2;
+  sent.watchdog_trips = 1;
+  sent.compute_p99_us = 410;
+  sent.compute_max_us = 1'250;
+  sent.lateness_p99_us = 60;
+  sent.lateness_max_us = 900;
+  sent.snapshots_dropped = 5;
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::loop_timing_t>(buf);
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.period_us == sent.period_us);
+  REQUIRE(got.cycles == sent.cycles);
+  REQUIRE(got.deadline_misses == sent.deadline_misses);
+  REQUIRE(got.skipped_periods == sent.skipped_periods);
+  REQUIRE(got.watchdog_trips == sent.watchdog_trips);
+  REQUIRE(got.compute_p99_us == sent.compute_p99_us);
+  REQUIRE(got.compute_max_us == sent.compute_max_us);
+  REQUIRE(got.lateness_p99_us == sent.lateness_p99_us);
+  REQUIRE(got.lateness_max_us == sent.lateness_max_us);
+  REQUIRE(got.snapshots_dropped == sent.snapshots_dropped);
+  require_truncations_rejected<mgc::loop_timing_t>(buf);
+}
+
+TEST_CASE("operator_instruction_t round-trips every field", "[unit]") {
+  mgc::operator_instruction_t sent{};
+  sent.utime = 5;
+  sent.text = "swing left 32 deg, then boom up 4 deg";
+  sent.segment_index = 2;
+  sent.obstacle_clearance = 4.25;
+  sent.obstacle_index = 7;
+  sent.limit_margin = 0.125;
+  sent.limit_joint = 1;
+  sent.load_moment_pct = 63.5;
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::operator_instruction_t>(buf);
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.text == sent.text);
+  REQUIRE(got.segment_index == sent.segment_index);
+  REQUIRE(got.obstacle_clearance == sent.obstacle_clearance);
+  REQUIRE(got.obstacle_index == sent.obstacle_index);
+  REQUIRE(got.limit_margin == sent.limit_margin);
+  REQUIRE(got.limit_joint == sent.limit_joint);
+  REQUIRE(got.load_moment_pct == sent.load_moment_pct);
+  require_truncations_rejected<mgc::operator_instruction_t>(buf);
+}
+
+TEST_CASE("the feed's fingerprints differ from each other and from the loop's types", "[unit]") {
+  const std::array<std::int64_t, 8> hashes = {
+      mgc::machine_state_t::getHash(),      mgc::operator_guidance_t::getHash(),
+      mgc::alert_t::getHash(),              mgc::plan_t::getHash(),
+      mgc::operator_command_t::getHash(),   mgc::command_status_t::getHash(),
+      mgc::loop_timing_t::getHash(),        mgc::operator_instruction_t::getHash(),
+  };
+  for (std::size_t i = 0; i < hashes.size(); ++i) {
+    for (std::size_t j = i + 1; j < hashes.size(); ++j) {
+      CAPTURE(i, j);
+      REQUIRE(hashes[i] != hashes[j]);
+    }
+  }
 }
