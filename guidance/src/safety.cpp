@@ -75,34 +75,74 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
     const double needed = std::ceil(r.stop_duration_s * rate_m_s / config_.sample_step_m);
     intervals = static_cast<int>(std::clamp(needed, 1.0, static_cast<double>(config_.max_samples)));
   }
-  const double dt_s = intervals > 0 ? r.stop_duration_s / intervals : 0.0;
-  // Most a body point moves between samples: half of it may lie between a sample and the worst point.
-  const double half_step_m = 0.5 * rate_m_s * dt_s;
+  // The finest step keeps body points within sample_step_m of each other between samples; where the
+  // clearance is large the check advances further (conservative advancement): a body point moves
+  // at most rate_m_s, so clearance d at one sample stays above the warning margin for
+  // (d - warning) / rate_m_s. Steps never fall below the finest, so at most max_samples + 1 samples.
+  const double min_dt_s = intervals > 0 ? r.stop_duration_s / intervals : 0.0;
   const double dynamic_reach_m = config_.dynamic_obstacle_speed_m_s * r.stop_duration_s;
+  constexpr double kFar = 1e9;  //!< stands for "no envelope limit" [m]
 
   planning::JointVector q(n);
-  bool first = true;
-  for (int s = 0; s <= intervals; ++s) {
-    const double t_s = s * dt_s;
+  double t_s = 0.0;
+  double prev_clearance_m = 0.0;
+  double prev_envelope_m = 0.0;
+  planning::Clearance prev_contact;
+  EnvelopeDistance prev_limit;
+  double prev_t_s = 0.0;
+  r.min_clearance_m = kFar;
+  double min_envelope_m = kFar;
+  for (;;) {
     for (int j = 0; j < n; ++j) q[j] = profiles_[static_cast<std::size_t>(j)].at_time(t_s).position;
     const planning::Clearance c = world_.clearance(q);
-    double conservative_m = c.distance_m - half_step_m;
-    if (c.with == planning::Contact::With::Dynamic) conservative_m -= dynamic_reach_m;
-    if (first || conservative_m < r.min_clearance_m) {
-      r.min_clearance_m = conservative_m;
-      r.nearest = c;
-      r.nearest_time_s = t_s;
-    }
+    double clearance_m = c.distance_m;
+    if (c.with == planning::Contact::With::Dynamic) clearance_m -= dynamic_reach_m;
+    EnvelopeDistance limit;
+    double envelope_m = kFar;
     if (envelope_ != nullptr) {
-      const EnvelopeDistance e = envelope_->nearest(q);
-      if (e.limit != EnvelopeLimit::None &&
-          (r.envelope.limit == EnvelopeLimit::None || e.distance_m - half_step_m < r.envelope.distance_m)) {
-        r.envelope = e;
-        r.envelope.distance_m -= half_step_m;
-      }
+      limit = envelope_->nearest(q);
+      if (limit.limit != EnvelopeLimit::None) envelope_m = limit.distance_m;
     }
-    first = false;
     ++r.samples;
+
+    // Least clearance over the interval since the previous sample: both ends can only fall at
+    // rate_m_s, so the two falling lines meet at (d0 + d1 - rate h) / 2.
+    double bound_m = clearance_m;
+    double envelope_bound_m = envelope_m;
+    const bool interval = r.samples > 1;
+    if (interval) {
+      const double travel_m = rate_m_s * (t_s - prev_t_s);
+      bound_m = std::min({prev_clearance_m, clearance_m, 0.5 * (prev_clearance_m + clearance_m - travel_m)});
+      envelope_bound_m = std::min({prev_envelope_m, envelope_m, 0.5 * (prev_envelope_m + envelope_m - travel_m)});
+    }
+    if (bound_m < r.min_clearance_m) {
+      r.min_clearance_m = bound_m;
+      const bool earlier = interval && prev_clearance_m < clearance_m;
+      r.nearest = earlier ? prev_contact : c;
+      r.nearest_time_s = earlier ? prev_t_s : t_s;
+    }
+    if (limit.limit != EnvelopeLimit::None && envelope_bound_m < min_envelope_m) {
+      min_envelope_m = envelope_bound_m;
+      r.envelope = interval && prev_envelope_m < envelope_m ? prev_limit : limit;
+      r.envelope.distance_m = envelope_bound_m;
+    }
+    // Once the stop is certain the rest of the sweep changes nothing.
+    if (r.min_clearance_m < config_.stop_margin_m || min_envelope_m < -config_.envelope_stop_margin_m) break;
+    if (t_s >= r.stop_duration_s) break;
+
+    prev_clearance_m = clearance_m;
+    prev_envelope_m = envelope_m;
+    prev_contact = c;
+    prev_limit = limit;
+    prev_t_s = t_s;
+    double dt_s = min_dt_s;
+    if (rate_m_s > 0.0) {
+      const double free_m = std::min(clearance_m - config_.warning_margin_m, envelope_m + config_.envelope_stop_margin_m);
+      dt_s = std::max(dt_s, free_m / rate_m_s);
+    } else {
+      dt_s = r.stop_duration_s;
+    }
+    t_s = std::min(t_s + dt_s, r.stop_duration_s);
   }
 
   const bool envelope_crossed =

@@ -129,9 +129,14 @@ TEST_CASE("stop check: a dynamic obstacle's reach during the stop counts", "[uni
   const StopCheckResult a = without.check(state(180, kFullSlewDegS));
   const StopCheckResult b = with.check(state(180, kFullSlewDegS));
   CHECK(a.nearest.with == Contact::With::Dynamic);
-  CHECK(b.min_clearance_m == Approx(a.min_clearance_m - 2.5).margin(1e-6));
+  CHECK(a.min_clearance_m >= 0.5);
   CHECK(a.status != StopCheckStatus::Stop);
+  // The sweep ends at the first interval under the stop margin, here already at the start: the
+  // crane-2 clearance less its 2.5 m reach.
   CHECK(b.status == StopCheckStatus::Stop);
+  CHECK(b.nearest.with == Contact::With::Dynamic);
+  CHECK(b.min_clearance_m < 0.5);
+  CHECK(b.samples < a.samples);
 }
 
 TEST_CASE("stop check: the stopping motion is swept against the envelope", "[unit]") {

@@ -33,8 +33,8 @@ struct StopCheckConfig {
   //! How fast a dynamic obstacle may move toward us; its clearance is reduced by this times the
   //! stop duration. A second crane's boom tip slewing at ~4 deg/s at 15-20 m radius. [m/s]
   double dynamic_obstacle_speed_m_s = 1.0;
-  //! Most a body point moves between two samples of the stopping motion; the reported minimum
-  //! clearance is the sampled one less half of this, so it bounds the continuous motion. [m]
+  //! Most a body point moves between two samples of the stopping motion where the clearance is
+  //! within the warning margin (further out the check advances by the clearance itself). [m]
   double sample_step_m = 0.1;
   //! Cap on samples per check (bounded work per cycle); when reached the step grows, and the
   //! conservative clearance with it. [-]
@@ -54,8 +54,9 @@ struct StopCheckResult {
   bool replan = false;            //!< Stop: the supervisor should re-plan
   double stop_duration_s = 0.0;   //!< time to rest under the braking limits [s]
   planning::JointVector stop_position;  //!< where the machine comes to rest
-  //! Least clearance along the stop, conservative (sampled minimum less half the sample step, and
-  //! dynamic obstacles less their reach during the stop). [m]
+  //! Least clearance along the stop, conservative: between two samples d0, d1 a distance h of
+  //! body travel apart, (d0 + d1 - h) / 2; dynamic obstacles less their reach during the stop. On
+  //! Stop the sweep ends at the first interval under the stop margin, so this is that interval's. [m]
   double min_clearance_m = 0.0;
   planning::Clearance nearest;    //!< what is nearest at that sample
   double nearest_time_s = 0.0;    //!< [s] into the stop
@@ -68,8 +69,9 @@ struct StopCheckResult {
 //! Short-horizon safety check, every cycle: from the current state the time-optimal stop of every
 //! joint under its braking limits (calculate_stop), sampled so that no body point moves more than
 //! sample_step_m between samples (the model's displacement bounds times each joint's peak speed in
-//! the stop), each sample's clearance to the static and dynamic obstacles (at the poses the caller
-//! set this cycle) and, if given, its envelope distance. RT-safe after construction: no allocation,
+//! the stop) where the clearance is near the warning margin, and further apart where it is large
+//! (conservative advancement); each sample's clearance to the static and dynamic obstacles (at the
+//! poses the caller set this cycle) and, if given, its envelope distance. RT-safe after construction: no allocation,
 //! no throw. Not thread-safe (it poses the world's machine).
 class StopCheck {
  public:
