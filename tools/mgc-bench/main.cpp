@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "bus_bench.hpp"
+#include "safety_bench.hpp"
 #include "trajectory_bench.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
@@ -115,7 +116,7 @@ int main(int argc, char** argv) {
   int bus_samples = 1500;
   int trajectory_cases = 100000;
   for (const Suite& s : suites()) names += std::string(names.empty() ? "" : ", ") + s.name;
-  app.add_option("--suite", suite_name, "suite to run: " + names + ", all (the planning suites), bus (fieldbus) or trajectory");
+  app.add_option("--suite", suite_name, "suite to run: " + names + ", all (the planning suites), bus (fieldbus), trajectory or safety");
   app.add_option("--runs", runs, "runs (seeds) per case")->check(CLI::PositiveNumber);
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
   app.add_option("--out", out_dir, "write <suite>.csv (every run) and <suite>.md (the table) here");
@@ -131,12 +132,13 @@ int main(int argc, char** argv) {
   }
   if (suite_name == "bus") return mgc::bench::run_bus_suite({scenarios_dir, out_dir, bus_samples});
   if (suite_name == "trajectory") return mgc::bench::run_trajectory_suite({out_dir, trajectory_cases, first_seed});
+  if (suite_name == "safety") return mgc::bench::run_safety_suite({scenarios_dir, out_dir});
   std::vector<const Suite*> chosen;
   for (const Suite& s : suites()) {
     if (suite_name == "all" || suite_name == s.name) chosen.push_back(&s);
   }
   if (chosen.empty()) {
-    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, all, bus, trajectory; got '%s'\n", names.c_str(), suite_name.c_str());
+    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, all, bus, trajectory, safety; got '%s'\n", names.c_str(), suite_name.c_str());
     return 2;
   }
   if (!out_dir.empty()) std::filesystem::create_directories(out_dir);
