@@ -415,7 +415,7 @@ Validity CollisionWorld::validate(const JointVector& q) noexcept {
 Validity CollisionWorld::validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
                                        JointVector* at) noexcept {
   const JointVector delta = model_.difference(from, to);
-  int steps = 1;
+  int steps = std::max(1, model_.edge_min_samples(from, to));
   double travel_m = 0.0;
   for (int i = 0; i < model_.dof(); ++i) {
     steps = std::max(steps, static_cast<int>(std::ceil(std::abs(delta[i]) / max_step[i] - 1e-12)));

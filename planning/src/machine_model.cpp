@@ -52,6 +52,11 @@ const char* to_string(ConstraintStatus status) noexcept {
     case ConstraintStatus::BoomAboveChartAngle: return "boom elevation above the allowed maximum";
     case ConstraintStatus::LoadBelowGround: return "load below the ground";
     case ConstraintStatus::CableTooShort: return "cable too short";
+    case ConstraintStatus::NoEquilibrium: return "no suspension equilibrium with the cable tilt within its limit";
+    case ConstraintStatus::TipDistance: return "boom tips too far apart or too close to hang the load";
+    case ConstraintStatus::CableTilt: return "cable tilt above its limit";
+    case ConstraintStatus::GirderTilt: return "girder tilt above its limit";
+    case ConstraintStatus::CraneOverload: return "cable tension above the crane's rated capacity";
   }
   return "unknown";
 }
@@ -88,6 +93,8 @@ double MachineModel::edge_displacement_bound(const JointVector& /*from*/, const 
                                              int joint) const noexcept {
   return displacement_bound(joint);
 }
+
+int MachineModel::edge_min_samples(const JointVector& /*from*/, const JointVector& /*to*/) const noexcept { return 1; }
 
 int MachineModel::joint_out_of_range(const JointVector& q) const noexcept {
   for (int i = 0; i < dof(); ++i) {

@@ -9,6 +9,6 @@ inline constexpr int kMaxJoints = 8;         //!< joints of one planning problem
 inline constexpr int kMaxBodies = 12;        //!< collision bodies of one machine model
 inline constexpr int kMaxFrames = 12;        //!< kinematic frames reported by forward kinematics
 inline constexpr int kMaxKeyPoints = 8;      //!< named points (boom tip, hook, bucket tip, ...)
-inline constexpr int kMaxSelfPairs = 8;      //!< body pairs of one machine checked against each other
+inline constexpr int kMaxSelfPairs = 32;     //!< body pairs of one machine checked against each other (dual crane: 25)
 
 }  // namespace mgc

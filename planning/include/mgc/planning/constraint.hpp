@@ -14,6 +14,12 @@ enum class ConstraintStatus : std::int16_t {
   BoomAboveChartAngle = -304,     //!< boom elevation above the chart's (or table's) maximum
   LoadBelowGround = -305,         //!< the suspended load or bucket would go below the ground
   CableTooShort = -306,           //!< hook block drawn into the boom tip / trolley
+  // Two cranes on one load (seed 004).
+  NoEquilibrium = -340,  //!< the suspension hangs only with a cable tilted beyond its limit
+  TipDistance = -341,    //!< boom tips too far apart (or too close) for the chain to close
+  CableTilt = -342,      //!< a cable's tilt from vertical above the limit
+  GirderTilt = -343,     //!< the load's slope from horizontal above the limit
+  CraneOverload = -344,  //!< a crane's cable tension above its rated capacity at its radius
 };
 
 [[nodiscard]] const char* to_string(ConstraintStatus status) noexcept;

@@ -98,6 +98,10 @@ class MachineModel {
   //! checks use it to bound how far the machine moves between samples. Default: the global one.
   [[nodiscard]] virtual double edge_displacement_bound(const JointVector& from, const JointVector& to,
                                                        int joint) const noexcept;
+  //! Fewest samples the straight edge from -> to needs by the model's own rule (the dual crane's:
+  //! girder anchors move at most its anchor step between samples); edge checks take at least this
+  //! many. Default: 1.
+  [[nodiscard]] virtual int edge_min_samples(const JointVector& from, const JointVector& to) const noexcept;
 
   //! to - from per joint; continuous joints take the shorter way round. [rad | m]
   [[nodiscard]] JointVector difference(const JointVector& from, const JointVector& to) const noexcept;
