@@ -9,7 +9,7 @@ MGC_PACKAGES=(
   g++ cmake make pkg-config
   libeigen3-dev libfcl-dev libccd-dev
   liblcm-dev liblcm-bin libglib2.0-dev
-  catch2 libyaml-cpp-dev libcli11-dev libboost-dev libsodium-dev
+  catch2 libyaml-cpp-dev libcli11-dev libboost-dev libsodium-dev libompl-dev
   qemu-system-x86 busybox-static cpio
 )
 
