@@ -27,6 +27,9 @@ Eigen::Isometry3d DynamicObstacleSpec::pose_at(double t_s) const noexcept {
 
 std::unique_ptr<MachineModel> build_model(const Scenario& scenario) {
   const MachineDefinition& m = scenario.machine;
+  if (scenario.dual_crane) {
+    return std::make_unique<DualCraneModel>(m.name + " x2", m.joints, m.mobile_crane, m.load_chart, *scenario.dual_crane);
+  }
   switch (m.kind) {
     case MachineKind::MobileCrane: {
       if (!scenario.task) throw std::invalid_argument("a mobile crane scenario needs a task");

@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "dual_crane_fields.hpp"
 #include "geometry_fields.hpp"
 #include "work_cycle_fields.hpp"
 #include "yaml_fields.hpp"
@@ -464,8 +465,11 @@ Scenario load_scenario(const std::filesystem::path& path) {
     machine_value.fail("a machine file relative to the scenario's folder (" + machine_path.string() + " does not exist)");
   }
   s.machine = load_machine(machine_path);
+  if (auto dual = f.optional("dual_crane")) s.dual_crane = read_dual_crane(*dual, s.machine);
 
-  {
+  if (s.dual_crane) {
+    if (auto base = f.optional("base")) base->fail_plain("a dual-crane scenario places its cranes in dual_crane.crane_1 and crane_2");
+  } else {
     Fields base = f.required("base").fields();
     s.world_from_base = Eigen::Isometry3d::Identity();
     s.world_from_base.translate(base.required("position_m").vec3());
@@ -475,6 +479,8 @@ Scenario load_scenario(const std::filesystem::path& path) {
 
   if (s.machine.kind == MachineKind::Excavator) {
     if (auto task = f.optional("task")) task->fail_plain("an excavator scenario has no task (no load is lifted)");
+  } else if (s.dual_crane) {
+    if (auto task = f.optional("task")) task->fail_plain("a dual-crane scenario has no task: the load is dual_crane.girder");
   } else {
     s.task = read_task(f.required("task"), s.machine);
   }
@@ -533,11 +539,14 @@ std::vector<InputError> check_endpoints(LoadedScenario& loaded) {
       message += ")";
     }
     if (v.status == Validity::Status::Constraint && v.constraint.status != ConstraintStatus::LoadAboveChart) {
-      const bool angle = v.constraint.status == ConstraintStatus::BoomBelowChartAngle ||
-                         v.constraint.status == ConstraintStatus::BoomAboveChartAngle;
+      const ConstraintStatus c = v.constraint.status;
+      const bool angle = c == ConstraintStatus::BoomBelowChartAngle || c == ConstraintStatus::BoomAboveChartAngle ||
+                         c == ConstraintStatus::NoEquilibrium || c == ConstraintStatus::CableTilt ||
+                         c == ConstraintStatus::GirderTilt;
       const double scale = angle ? 180.0 / std::numbers::pi : 1.0;
-      message += ": value " + format_number(v.constraint.value * scale) + (angle ? " deg" : " m") + ", limit " +
-                 format_number(v.constraint.limit * scale) + (angle ? " deg" : " m");
+      const char* unit = angle ? " deg" : c == ConstraintStatus::CraneOverload ? " lb" : " m";
+      message += ": value " + format_number(v.constraint.value * scale) + unit + ", limit " +
+                 format_number(v.constraint.limit * scale) + unit;
     }
     errors.emplace_back(ref.file, ref.line, ref.field, message);
   };

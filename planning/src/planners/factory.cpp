@@ -3,6 +3,7 @@
 #include "mgc/planning/planners/anytime.hpp"
 #include "mgc/planning/planners/bidirectional.hpp"
 #include "mgc/planning/planners/cart_rrt.hpp"
+#include "mgc/planning/planners/multi_rrt.hpp"
 #include "mgc/planning/planners/nonuniform.hpp"
 #include "mgc/planning/planners/single_axis_tree.hpp"
 
@@ -20,9 +21,10 @@ std::unique_ptr<Planner> make_planner(std::string_view name) {
   if (name == "nonuniform") return std::make_unique<NonUniformRrtPlanner>();
   if (name == "rrt-basic") return std::make_unique<NonUniformRrtPlanner>(true);
   if (name == "cart-rrt") return std::make_unique<CartRrtPlanner>();
+  if (name == "multi-rrt") return std::make_unique<MultiRrtPlanner>();
   return nullptr;
 }
 
-std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "anytime", "nonuniform", "rrt-basic", "cart-rrt"}; }
+std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "anytime", "nonuniform", "rrt-basic", "cart-rrt", "multi-rrt"}; }
 
 }  // namespace mgc::planning

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/dual_crane.hpp"
 #include "mgc/planning/excavator.hpp"
 #include "mgc/planning/load_chart.hpp"
 #include "mgc/planning/machine_model.hpp"
@@ -131,6 +132,9 @@ struct Scenario {
   PlannerParams planner;
   SimulationSpec simulation;
   std::optional<WorkCycleSpec> work_cycle;  //!< excavators only
+  //! Two cranes of the machine file's type on one girder (seed 004); then `machine.joints` are
+  //! dual_crane_joints(), and there is no base or task.
+  std::optional<DualCraneSpec> dual_crane;
 };
 
 //! The machine model a scenario describes. Throws std::invalid_argument with the reason when the
