@@ -396,6 +396,26 @@ bool CollisionWorld::is_free(const JointVector& q, Contact* contact) noexcept {
   return true;
 }
 
+bool CollisionWorld::hits_dynamic(const JointVector& q, Contact* contact) noexcept {
+  auto& impl = *impl_;
+  if (impl.dynamics.empty()) return false;
+  ++collision_checks_;
+  pose_machine(q);
+  for (std::size_t b = 0; b < impl.bodies.size(); ++b) {
+    CollisionObject* body = impl.bodies[b].object.get();
+    for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
+      for (auto& part : impl.dynamics[d].parts) {
+        if (!body->getAABB().overlap(part.object->getAABB())) continue;
+        if (intersects(body, part.object.get(), impl.collision_request, impl.collision_result)) {
+          if (contact) *contact = {Contact::With::Dynamic, static_cast<int>(b), static_cast<int>(d)};
+          return true;
+        }
+      }
+    }
+  }
+  return false;
+}
+
 Validity CollisionWorld::validate(const JointVector& q) noexcept {
   Validity v;
   v.joint = model_.joint_out_of_range(q);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 namespace mgc::planning {
 
@@ -60,13 +61,20 @@ std::unique_ptr<MachineModel> build_model(const Scenario& scenario) {
   throw std::invalid_argument("unknown machine kind");
 }
 
-std::unique_ptr<CollisionWorld> build_world(const Scenario& scenario, const MachineModel& model, double t_s) {
+std::unique_ptr<CollisionWorld> build_world(const Scenario& scenario, const MachineModel& model, double t_s,
+                                            int predicted_poses) {
   auto world = std::make_unique<CollisionWorld>(model, scenario.planner.dilation_m);
   for (const StaticObstacle& o : scenario.obstacles) world->add_static(o);
-  for (const DynamicObstacleSpec& d : scenario.dynamic_obstacles) world->add_dynamic(d.obstacle);
+  for (const DynamicObstacleSpec& d : scenario.dynamic_obstacles) {
+    for (int k = 0; k <= predicted_poses; ++k) {
+      DynamicObstacle copy = d.obstacle;
+      if (k > 0) copy.name += " (predicted " + std::to_string(k) + ")";
+      world->add_dynamic(std::move(copy));
+    }
+  }
   world->finalize();
-  for (std::size_t i = 0; i < scenario.dynamic_obstacles.size(); ++i) {
-    world->set_dynamic_pose(static_cast<int>(i), scenario.dynamic_obstacles[i].pose_at(t_s));
+  for (int i = 0; i < world->num_dynamic(); ++i) {
+    world->set_dynamic_pose(i, scenario.dynamic_obstacles[static_cast<std::size_t>(i / (predicted_poses + 1))].pose_at(t_s));
   }
   return world;
 }

@@ -40,6 +40,27 @@ void NodeTree::append_root_to(int node, std::vector<JointVector>& out) const noe
   for (std::size_t a = first, b = out.size(); a + 1 < b; ++a, --b) std::swap(out[a], out[b - 1]);
 }
 
+void NodeTree::trim(std::vector<unsigned char>& invalid, std::vector<int>& new_index) noexcept {
+  const std::size_t n = nodes_.size();
+  new_index.resize(n);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int p = parents_[i];
+    // Parents precede children, so a parent's flag is final when its child is reached.
+    if (p >= 0 && invalid[static_cast<std::size_t>(p)]) invalid[i] = 1;
+    if (invalid[i]) {
+      new_index[i] = -1;
+      continue;
+    }
+    new_index[i] = static_cast<int>(kept);
+    nodes_[kept] = nodes_[i];
+    parents_[kept] = p < 0 ? -1 : new_index[static_cast<std::size_t>(p)];
+    ++kept;
+  }
+  nodes_.resize(kept);
+  parents_.resize(kept);
+}
+
 JointVector uniform_sample(const MachineModel& model, Random& random) noexcept {
   JointVector q(model.dof());
   for (int i = 0; i < model.dof(); ++i) {

@@ -15,6 +15,7 @@ const char* to_string(PlannerStatus status) noexcept {
     case PlannerStatus::IterationLimit: return "iteration limit reached";
     case PlannerStatus::PoolExhausted: return "node pool exhausted";
     case PlannerStatus::NotReset: return "not reset";
+    case PlannerStatus::GoalOccupied: return "goal occupied by an obstacle";
   }
   return "unknown";
 }
@@ -34,6 +35,7 @@ PlannerStatus SingleAxisTreePlanner::reset(const PlanningProblem& problem) {
   problem_ = &problem;
   random_.reseed(problem.seed);
   iterations_ = 0;
+  solved_node_ = -1;
   path_.clear();
   checks_at_reset_ = problem.world->collision_checks();
   const auto capacity = static_cast<std::size_t>(problem.node_capacity > 0 ? problem.node_capacity : problem.max_iterations + 1);
@@ -61,6 +63,17 @@ PlannerStatus SingleAxisTreePlanner::step(int iteration_budget) noexcept {
       return status_ = PlannerStatus::Solved;
     }
   }
+  return status_;
+}
+
+PlannerStatus SingleAxisTreePlanner::resume() noexcept {
+  iterations_ = 0;
+  solved_node_ = -1;
+  path_.clear();
+  if (tree_.size() == 0) return status_ = PlannerStatus::PoolExhausted;
+  status_ = PlannerStatus::Running;
+  const int near = nearest(problem_->goal);
+  if (near_goal(tree_.node(near)) && finish(near)) status_ = PlannerStatus::Solved;
   return status_;
 }
 
@@ -147,10 +160,11 @@ bool SingleAxisTreePlanner::finish(int node) noexcept {
     path_.push_back(next);
     current = next;
   }
+  solved_node_ = node;
   return true;
 }
 
-bool LimConPlanner::iterate() noexcept {
+bool SingleAxisTreePlanner::limited_connect() noexcept {
   const JointVector target = sample();
   const int near = nearest(target);
   JointVector next;
@@ -188,12 +202,16 @@ bool LimConPlanner::iterate() noexcept {
   return tree_.add(last, near);
 }
 
-bool GoalBiasedRrtPlanner::iterate() noexcept {
+bool SingleAxisTreePlanner::single_step() noexcept {
   const JointVector target = sample();
   const int near = nearest(target);
   JointVector next;
   if (select_input(tree_.node(near), target, next) < 0) return true;
   return tree_.add(next, near);
 }
+
+bool LimConPlanner::iterate() noexcept { return limited_connect(); }
+
+bool GoalBiasedRrtPlanner::iterate() noexcept { return single_step(); }
 
 }  // namespace mgc::planning

@@ -72,6 +72,9 @@ class CollisionWorld {
 
   //! Collision only. RT-safe after finalize().
   [[nodiscard]] bool is_free(const JointVector& q, Contact* contact = nullptr) noexcept;
+  //! Collision with the dynamic obstacles only, at their current poses: what a move of those
+  //! can newly break in a configuration that was valid. RT-safe after finalize().
+  [[nodiscard]] bool hits_dynamic(const JointVector& q, Contact* contact = nullptr) noexcept;
   //! Joint ranges, constraints, then collision.
   [[nodiscard]] Validity validate(const JointVector& q) noexcept;
   //! Validates the straight joint-space edge from -> to at n evenly spaced configurations after

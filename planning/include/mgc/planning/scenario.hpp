@@ -141,9 +141,11 @@ struct Scenario {
 //! definition and task do not fit together (callers at the file edge add the file and line).
 [[nodiscard]] std::unique_ptr<MachineModel> build_model(const Scenario& scenario);
 
-//! The collision world of a scenario with its dynamic obstacles posed at t_s.
+//! The collision world of a scenario with its dynamic obstacles posed at t_s. With
+//! predicted_poses = P, each dynamic obstacle d is added P + 1 times, as world indices
+//! d (P + 1) + k, so that copies k = 1..P can stand where it will be (execute_with_replanning).
 [[nodiscard]] std::unique_ptr<CollisionWorld> build_world(const Scenario& scenario, const MachineModel& model,
-                                                          double t_s = 0.0);
+                                                          double t_s = 0.0, int predicted_poses = 0);
 
 //! The scenario's query (start, goal and its planner parameters) on a built model and world;
 //! the seed is the scenario's. The model and world must outlive the problem.

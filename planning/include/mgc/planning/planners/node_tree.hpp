@@ -23,6 +23,12 @@ class NodeTree {
   //! Appends the configurations from the root down to `node` to `out` (whose capacity the caller
   //! reserved). RT-safe.
   void append_root_to(int node, std::vector<JointVector>& out) const noexcept;
+  //! Drops every node flagged in `invalid` (indexed by node, size() entries) and every
+  //! descendant of one, keeping the rest in insertion order with parents renumbered; `invalid`
+  //! is rewritten to the flags of the removed nodes' old indices and `new_index` (size() entries,
+  //! capacity reserved by the caller) receives each old node's new index or -1. Relies on
+  //! parents being added before their children. RT-safe.
+  void trim(std::vector<unsigned char>& invalid, std::vector<int>& new_index) noexcept;
 
   [[nodiscard]] std::size_t size() const noexcept { return nodes_.size(); }
   [[nodiscard]] std::size_t capacity() const noexcept { return capacity_; }

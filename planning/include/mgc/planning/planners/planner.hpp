@@ -18,6 +18,7 @@ enum class PlannerStatus : std::int16_t {
   IterationLimit = -322, //!< max_iterations spent without reaching the goal
   PoolExhausted = -323,  //!< the node pool is full: it is sized at reset and never grows
   NotReset = -324,       //!< step() before reset()
+  GoalOccupied = -325,   //!< re-planning: an obstacle now covers the goal itself; retry once it moves
 };
 
 [[nodiscard]] const char* to_string(PlannerStatus status) noexcept;

@@ -44,6 +44,17 @@ class SingleAxisTreePlanner : public Planner {
   [[nodiscard]] bool valid_step(const JointVector& from, const JointVector& to) noexcept {
     return problem_->world->validate_edge(from, to, problem_->step).valid();
   }
+  //! The thesis's Limited Greedy Connect iteration (App. E), shared by limcon and the DRRT.
+  [[nodiscard]] bool limited_connect() noexcept;
+  //! The goal-biased RRT iteration: one step toward the sample.
+  [[nodiscard]] bool single_step() noexcept;
+  //! Starts a new query on the tree as it stands -- the problem's goal, cap or bias may have
+  //! changed (re-planning): resets the iteration count and solves at once when a node already
+  //! lies within the goal tolerance. RT-safe.
+  [[nodiscard]] PlannerStatus resume() noexcept;
+  //! The tree node the solved path leaves the tree at, before the closing moves; -1 unsolved.
+  [[nodiscard]] int solved_node() const noexcept { return solved_node_; }
+
   const PlanningProblem* problem_ = nullptr;
   Random random_;
   NodeTree tree_;
@@ -56,6 +67,7 @@ class SingleAxisTreePlanner : public Planner {
   [[nodiscard]] bool finish(int node) noexcept;
 
   PlannerStatus status_ = PlannerStatus::NotReset;
+  int solved_node_ = -1;
   int iterations_ = 0;
   std::uint64_t checks_at_reset_ = 0;
   std::vector<JointVector> path_;

@@ -1,0 +1,82 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "mgc/planning/planners/replanner.hpp"
+#include "mgc/planning/scenario.hpp"
+
+namespace mgc::planning {
+
+//! How the kinematic execution of a lift runs (the seed papers' simulation loop: move one small
+//! step, update the obstacles, check the next step, stop and re-plan when it collides).
+struct ExecutionSettings {
+  double tick_s = 1.0 / 30.0;     //!< the thesis's simulation step: one frame at 30 fps [s]
+  double start_time_s = 0.0;      //!< scenario time at which the machine starts [s]
+  double time_limit_s = 900.0;    //!< scenario time after which the lift counts as stuck [s]
+  double hold_s = 1.0;            //!< after a failed repair, hold this long before looking again [s]
+  int max_repairs = 50;           //!< repairs after which the lift counts as stuck
+  int iteration_budget = 200;     //!< iterations per step() slice
+  bool record_trajectory = true;  //!< keep every executed configuration
+  //! With a world built with predicted poses (build_world's predicted_poses = P), copy k of
+  //! each dynamic obstacle stands where the scenario puts it k / P of this horizon ahead, so
+  //! moves and repairs keep clear of where obstacles are going, not only of where they are. [s]
+  double prediction_horizon_s = 0.0;
+};
+
+//! One stop and its repair.
+struct RepairEvent {
+  double t_s = 0.0;      //!< scenario time of the obstacle poses the repair saw [s]
+  JointVector at;        //!< where the machine stopped
+  int obstacle = -1;     //!< dynamic obstacle the blocked motion hit; -1 if something else
+  PlannerStatus status = PlannerStatus::NotReset;  //!< how the repair ended
+  double compute_ms = 0.0;  //!< by the caller's clock, from replan() to the end of the repair [ms]
+  int iterations = 0;
+  int invalidated_nodes = 0;
+  int bridge_attempts = 0;
+  int path_nodes = 0;     //!< of the repaired path
+  std::vector<JointVector> path;  //!< the repaired path, when the trajectory is recorded
+  //! The prediction covered the machine's stop, so the repair saw the obstacles' present poses.
+  bool predicted_start_conflict = false;
+};
+
+struct ExecutedState {
+  double t_s = 0.0;  //!< scenario time [s]
+  JointVector q;
+};
+
+struct ExecutionResult {
+  enum class Outcome : std::uint8_t {
+    Arrived,          //!< the machine reached the exact goal
+    FirstPlanFailed,  //!< no first path
+    Stuck,            //!< time limit or repair limit reached before the goal
+  };
+  Outcome outcome = Outcome::Stuck;
+  PlannerStatus first_plan = PlannerStatus::NotReset;
+  double first_plan_ms = 0.0;  //!< by the caller's clock [ms]
+  int first_plan_nodes = 0;    //!< path nodes of the first plan
+  double end_time_s = 0.0;     //!< scenario time when execution ended [s]
+  //! States (moves and holds) at which a dynamic obstacle overlapped the dilated machine: an
+  //! obstacle that ran into it. 0 is the only safe result.
+  int contact_states = 0;
+  std::vector<RepairEvent> repairs;
+  std::vector<ExecutedState> trajectory;  //!< start first, then the state after every move or held tick
+};
+
+[[nodiscard]] const char* to_string(ExecutionResult::Outcome outcome) noexcept;
+
+//! Plans the problem with `replanner` and moves the machine along the path kinematically: along
+//! each edge, the joints at their speed limits scaled to arrive together, at most one tick or up
+//! to the next waypoint per move. Before each move the dynamic obstacles go to their scenario
+//! poses at the move's end and the move is checked against them (dynamic obstacles only: the
+//! planner answers for the static ones); when it collides, the machine stops where it is (time frozen, as in the papers) and the
+//! re-planner repairs. After a failed repair the machine holds for `hold_s` and looks again.
+//! `world` must be the problem's, built from `scenario` (dynamic obstacles in scenario order).
+//! `clock_ms` times the first plan and the repairs; without it those times are 0.
+[[nodiscard]] ExecutionResult execute_with_replanning(const Scenario& scenario, const PlanningProblem& problem,
+                                                      Replanner& replanner, const ReplanSettings& replan,
+                                                      const ExecutionSettings& settings,
+                                                      const std::function<double()>& clock_ms = {});
+
+}  // namespace mgc::planning

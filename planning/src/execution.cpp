@@ -1,0 +1,160 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/planning/execution.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace mgc::planning {
+namespace {
+
+//! Whether the straight move from -> to hits a dynamic obstacle at its current pose, sampled
+//! so that no body point moves more than the dilation between samples. Static obstacles and
+//! constraints are the planner's: its edges are valid along their whole continuous motion, and
+//! re-sampling a piece of one at other points would only find the dilation margin, not a
+//! collision.
+bool hits_dynamic_along(CollisionWorld& world, const MachineModel& model, const JointVector& from,
+                        const JointVector& to, Contact& contact) {
+  const JointVector delta = model.difference(from, to);
+  double travel_m = 0.0;
+  for (int i = 0; i < model.dof(); ++i) travel_m += model.edge_displacement_bound(from, to, i) * std::abs(delta[i]);
+  const int samples = std::max(1, static_cast<int>(std::ceil(travel_m / std::max(world.dilation_m(), 1e-3))));
+  for (int k = 0; k <= samples; ++k) {
+    if (world.hits_dynamic(model.interpolate(from, to, static_cast<double>(k) / samples), &contact)) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+const char* to_string(ExecutionResult::Outcome outcome) noexcept {
+  switch (outcome) {
+    case ExecutionResult::Outcome::Arrived: return "arrived";
+    case ExecutionResult::Outcome::FirstPlanFailed: return "first plan failed";
+    case ExecutionResult::Outcome::Stuck: return "stuck";
+  }
+  return "unknown";
+}
+
+ExecutionResult execute_with_replanning(const Scenario& scenario, const PlanningProblem& problem, Replanner& replanner,
+                                        const ReplanSettings& replan, const ExecutionSettings& settings,
+                                        const std::function<double()>& clock_ms) {
+  CollisionWorld& world = *problem.world;
+  const MachineModel& model = *problem.model;
+  const int copies = scenario.dynamic_obstacles.empty()
+                         ? 1
+                         : std::max(1, world.num_dynamic() / static_cast<int>(scenario.dynamic_obstacles.size()));
+  const int predicted = copies - 1;
+  // Copy k of each obstacle stands where the obstacle will be k / P of the horizon from now.
+  const auto pose_obstacles = [&](double t_s, double horizon_s) {
+    for (int i = 0; i < world.num_dynamic(); ++i) {
+      const int k = i % copies;
+      const double ahead_s = predicted > 0 ? horizon_s * k / predicted : 0.0;
+      world.set_dynamic_pose(i, scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)].pose_at(t_s + ahead_s));
+    }
+  };
+  const double horizon_s = settings.prediction_horizon_s;
+  const auto now_ms = [&] { return clock_ms ? clock_ms() : 0.0; };
+
+  ExecutionResult result;
+  double t_s = settings.start_time_s;
+  pose_obstacles(t_s, horizon_s);
+  const double plan_start_ms = now_ms();
+  PlannerStatus status = replanner.reset(problem, replan);
+  while (status == PlannerStatus::Running) status = replanner.step(settings.iteration_budget);
+  result.first_plan_ms = now_ms() - plan_start_ms;
+  result.first_plan = status;
+  if (status != PlannerStatus::Solved) {
+    result.outcome = ExecutionResult::Outcome::FirstPlanFailed;
+    result.end_time_s = t_s;
+    return result;
+  }
+  result.first_plan_nodes = static_cast<int>(replanner.path().size());
+  JointVector q = replanner.path().front();
+  std::size_t next = 1;
+  // Set while the prediction covers the machine: it then moves away from where the obstacles
+  // are, checked against their present poses, until it stands clear of the prediction again.
+  bool escaping = false;
+  // Every state reached: recorded, and checked against the obstacles' present poses, since an
+  // obstacle can run into a machine that has stopped.
+  const auto reached = [&](const JointVector& state) {
+    if (settings.record_trajectory) result.trajectory.push_back({t_s, state});
+    pose_obstacles(t_s, 0.0);
+    if (world.hits_dynamic(state)) ++result.contact_states;
+    if (escaping) {
+      pose_obstacles(t_s, horizon_s);
+      escaping = world.hits_dynamic(state);
+    }
+  };
+  reached(q);
+
+  for (;;) {
+    const std::vector<JointVector>& path = replanner.path();
+    if (next >= path.size()) {
+      result.outcome = ExecutionResult::Outcome::Arrived;
+      break;
+    }
+    if (t_s > settings.time_limit_s) break;
+    const JointVector& target = path[next];
+    const JointVector delta = model.difference(q, target);
+    double needed_s = 0.0;
+    for (int i = 0; i < model.dof(); ++i) {
+      needed_s = std::max(needed_s, std::abs(delta[i]) / model.joints()[static_cast<std::size_t>(i)].max_velocity);
+    }
+    const bool reaches = needed_s <= settings.tick_s;
+    const double dt_s = reaches ? needed_s : settings.tick_s;
+    const JointVector moved = reaches ? target : model.interpolate(q, target, dt_s / needed_s);
+
+    // Update-Environment, then check the move (seed 000 Fig. 8 lines 8-9): the poses at the
+    // move's end, which the repair then sees too. Obstacles here move centimetres per tick.
+    Contact contact;
+    const double seen_s = t_s + dt_s;
+    pose_obstacles(seen_s, escaping ? 0.0 : horizon_s);
+    if (!hits_dynamic_along(world, model, q, moved, contact)) {
+      q = moved;
+      t_s += dt_s;
+      if (reaches) ++next;
+      reached(q);
+      continue;
+    }
+
+    if (static_cast<int>(result.repairs.size()) >= settings.max_repairs) break;
+    RepairEvent event;
+    event.t_s = seen_s;
+    event.at = q;
+    event.obstacle = contact.with == Contact::With::Dynamic ? contact.other : -1;
+    const double repair_start_ms = now_ms();
+    status = replanner.replan(q, static_cast<int>(next));
+    while (status == PlannerStatus::Running) status = replanner.step(settings.iteration_budget);
+    if (status == PlannerStatus::InvalidStart && predicted > 0) {
+      // The obstacle is predicted to reach the machine where it stands: get away from where
+      // it is now.
+      pose_obstacles(seen_s, 0.0);
+      status = replanner.replan(q, static_cast<int>(next));
+      while (status == PlannerStatus::Running) status = replanner.step(settings.iteration_budget);
+      event.predicted_start_conflict = true;
+      escaping = status == PlannerStatus::Solved;
+    }
+    event.compute_ms = now_ms() - repair_start_ms;
+    event.status = status;
+    const ReplanStats stats = replanner.stats();
+    event.iterations = stats.iterations;
+    event.invalidated_nodes = stats.invalidated_nodes;
+    event.bridge_attempts = stats.bridge_attempts;
+    if (status == PlannerStatus::Solved) {
+      next = 1;
+      event.path_nodes = static_cast<int>(replanner.path().size());
+      if (settings.record_trajectory) event.path = replanner.path();
+    } else {
+      // Hold where it stopped and look again once the obstacles have moved on.
+      for (double held_s = 0.0; held_s < settings.hold_s; held_s += settings.tick_s) {
+        t_s += settings.tick_s;
+        reached(q);
+      }
+    }
+    result.repairs.push_back(event);
+  }
+  result.end_time_s = t_s;
+  return result;
+}
+
+}  // namespace mgc::planning
