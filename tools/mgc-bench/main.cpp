@@ -16,6 +16,7 @@
 #include "planning_bench.hpp"
 #include "safety_bench.hpp"
 #include "trajectory_bench.hpp"
+#include "replan_bench.hpp"
 #include "zhang_bench.hpp"
 
 namespace {
@@ -27,6 +28,7 @@ const std::vector<std::pair<std::string, PlanningSuite>>& planning_suites() {
   static const std::vector<std::pair<std::string, PlanningSuite>> all = {
       {"thesis", mgc::bench::run_thesis_suite},
       {"zhang", mgc::bench::run_zhang_suite},
+      {"replan", mgc::bench::run_replan_suite},
       {"langari", mgc::bench::run_langari_suite},
   };
   return all;
