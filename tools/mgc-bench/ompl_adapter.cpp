@@ -346,6 +346,7 @@ OmplResult solve_with_ompl(const PlanningProblem& problem, OmplPlanner which, co
   planner->setup();
   const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(options.time_limit_s));
   result.time_ms = elapsed_ms(t0);
+  result.solve_collision_checks = problem.world->collision_checks();
 
   ob::PlannerData data(si);
   planner->getPlannerData(data);

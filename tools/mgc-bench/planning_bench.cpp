@@ -182,8 +182,10 @@ RunRecord run_ours(BenchScenario& s, const std::string& planner_name, int max_it
   while (status == PlannerStatus::Running) status = planner->step(100);
   const double time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const PlannerStats stats = planner->stats();
-  return record_ours(s, planner_name, problem, status == PlannerStatus::Solved, time_ms, stats.iterations,
-                     stats.tree_nodes, planner->path());
+  RunRecord r = record_ours(s, planner_name, problem, status == PlannerStatus::Solved, time_ms, stats.iterations,
+                            stats.tree_nodes, planner->path());
+  r.collision_checks = stats.collision_checks;
+  return r;
 }
 
 bool have_ompl() noexcept {
@@ -219,7 +221,10 @@ RunRecord run_ompl(BenchScenario& s, OmplPlanner planner, const OmplOptions& opt
   r.seed = seed;
 #ifdef MGC_BENCH_HAVE_OMPL
   const PlanningProblem problem = bench_problem(s, max_iterations, seed);
+  const std::uint64_t checks_before = s.loaded.world->collision_checks();
   const OmplResult result = solve_with_ompl(problem, planner, options, seed);
+  // The simplifier's checks come after solve(): not the planner's.
+  r.collision_checks = result.solve_collision_checks - checks_before;
   r.success = result.solved;
   r.time_ms = result.time_ms;
   r.tree_nodes = result.tree_nodes;
@@ -288,11 +293,14 @@ Summary summarize(const std::string& header, const std::vector<RunRecord>& runs)
     ++s.successes;
     s.times_ms.push_back(r.time_ms);
     s.mean_tree_nodes += r.tree_nodes;
+    s.mean_collision_checks += static_cast<double>(r.collision_checks);
+    if (r.collision_checks > 0) s.us_per_check.push_back(1000.0 * r.time_ms / static_cast<double>(r.collision_checks));
     add(s.raw, r.raw);
     add(s.simplified, r.simplified);
   }
   const double n = s.successes > 0 ? s.successes : std::numeric_limits<double>::quiet_NaN();
   s.mean_tree_nodes /= n;
+  s.mean_collision_checks /= n;
   for (QualityMean* m : {&s.raw, &s.simplified}) {
     m->nodes /= n;
     m->switches /= n;
@@ -317,6 +325,8 @@ const char* metric_name(Metric m) {
     case Metric::MaxMs: return "longest [ms]";
     case Metric::SdMs: return "std. dev. [ms]";
     case Metric::TreeNodes: return "tree nodes";
+    case Metric::CollisionChecks: return "collision checks";
+    case Metric::UsPerCheck: return "planning time per check, median [us]";
     case Metric::PathNodes: return "path nodes, raw";
     case Metric::Switches: return "DoF switches, raw";
     case Metric::MultiJointEdges: return "multi-joint edges, raw";
@@ -348,6 +358,8 @@ std::string cell(Metric m, const Summary& s) {
     case Metric::MaxMs: return fixed(*std::max_element(s.times_ms.begin(), s.times_ms.end()), 2);
     case Metric::SdMs: return fixed(standard_deviation(s.times_ms), 2);
     case Metric::TreeNodes: return fixed(s.mean_tree_nodes, 1);
+    case Metric::CollisionChecks: return fixed(s.mean_collision_checks, 0);
+    case Metric::UsPerCheck: return fixed(percentile(s.us_per_check, 0.5), 2);
     case Metric::PathNodes: return fixed(s.raw.nodes, 1);
     case Metric::Switches: return fixed(s.raw.switches, 1);
     case Metric::MultiJointEdges: return fixed(s.raw.multi_joint_edges, 1);
@@ -399,13 +411,13 @@ bool RunLog::any_errors() const noexcept {
 
 void RunLog::write_csv(const std::string& path) const {
   std::ofstream out(path);
-  out << "suite,scenario,planner,seed,success,time_ms,iterations,tree_nodes,"
+  out << "suite,scenario,planner,seed,success,time_ms,iterations,tree_nodes,collision_checks,"
          "path_nodes,dof_switches,sequential_switches,multi_joint_edges,exec_time_s,roughness,cost,"
          "simplified_path_nodes,simplified_dof_switches,simplified_sequential_switches,simplified_multi_joint_edges,"
          "simplified_exec_time_s,simplified_roughness,simplified_cost,simplify_ms,recheck_failures,error\n";
   for (const auto& [suite, r] : records_) {
     out << suite << ',' << r.scenario << ',' << r.planner << ',' << r.seed << ',' << r.success << ',' << r.time_ms << ','
-        << r.iterations << ',' << r.tree_nodes << ',';
+        << r.iterations << ',' << r.tree_nodes << ',' << r.collision_checks << ',';
     quality_csv(out, r.raw);
     out << ',';
     quality_csv(out, r.simplified);
@@ -432,6 +444,7 @@ void RunLog::write_json(const std::string& path, const std::string& suite, const
     json.key("time_ms").value(r.time_ms);
     json.key("iterations").value(r.iterations);
     json.key("tree_nodes").value(r.tree_nodes);
+    json.key("collision_checks").value(r.collision_checks);
     json.key("raw");
     quality_json(json, r.raw);
     json.key("simplified");
@@ -555,6 +568,7 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
 
   const std::vector<Metric> rows = {Metric::Success,       Metric::MedianMs,          Metric::P95Ms,
                                     Metric::P99Ms,         Metric::MeanMs,            Metric::TreeNodes,
+                                    Metric::CollisionChecks, Metric::UsPerCheck,
                                     Metric::PathNodes,     Metric::Switches,          Metric::MultiJointEdges,
                                     Metric::ExecS,         Metric::SimplifiedPathNodes, Metric::SimplifiedSwitches,
                                     Metric::SimplifiedExecS};
@@ -566,7 +580,7 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
 
   std::string md = "### thesis\n\n";
   md += "ICE-Planner thesis §4.9 (RRTBiasedLimCon = `limcon`, RRTGoalBiased = `rrt`, 20,000-iteration cap) and "
-        "Table 4.2, beside OMPL " + std::string(ompl_build_version()) +
+        "Table 4.2, beside " + (have_ompl() ? "OMPL " + std::string(ompl_build_version()) : std::string("OMPL (not built into this binary)")) +
         " on the same problem with our validity checks (validate, and validate_edge at the problem's step). "
         "`--runs " + std::to_string(runs) + " --seed " + std::to_string(options.first_seed) +
         "`. Paper: means over 50 seeds on a Core2Duo T5550 1.83 GHz.\n\n";

@@ -57,6 +57,7 @@ struct RunRecord {
   double time_ms = 0.0;         //!< ours: reset + steps; OMPL: setup + solve [ms]
   int iterations = 0;           //!< ours only
   int tree_nodes = 0;
+  std::uint64_t collision_checks = 0;  //!< configurations checked for collision by the query
   PathQuality raw;
   PathQuality simplified;       //!< ours: smooth_path (single-axis); OMPL: its PathSimplifier
   double simplify_ms = 0.0;
@@ -119,6 +120,8 @@ struct Summary {
   int successes = 0;
   std::vector<double> times_ms;  //!< successful runs
   double mean_tree_nodes = 0.0;
+  double mean_collision_checks = 0.0;
+  std::vector<double> us_per_check;  //!< planning time per collision check, successful runs [us]
   QualityMean raw;
   QualityMean simplified;
   int recheck_failures = 0;
@@ -134,7 +137,7 @@ struct Summary {
 
 //! Rows a planning table can show.
 enum class Metric : std::uint8_t {
-  Success, MedianMs, P95Ms, P99Ms, MeanMs, MinMs, MaxMs, SdMs, TreeNodes,
+  Success, MedianMs, P95Ms, P99Ms, MeanMs, MinMs, MaxMs, SdMs, TreeNodes, CollisionChecks, UsPerCheck,
   PathNodes, Switches, MultiJointEdges, ExecS, Roughness, Cost,
   SimplifiedPathNodes, SimplifiedSwitches, SimplifiedExecS, SimplifiedRoughness, SimplifiedCost,
 };
