@@ -125,6 +125,13 @@ PathQuality path_quality(BenchScenario& s, const std::vector<JointVector>& path)
   return q;
 }
 
+std::uint64_t path_checks(BenchScenario& s, const std::vector<JointVector>& path) {
+  const JointVector step = step_sizes(*s.loaded.model, s.loaded.scenario.planner.space_resolution);
+  const std::uint64_t before = s.loaded.world->collision_checks();
+  for (std::size_t e = 0; e + 1 < path.size(); ++e) (void)s.loaded.world->validate_edge(path[e], path[e + 1], step);
+  return s.loaded.world->collision_checks() - before;
+}
+
 int dense_recheck(BenchScenario& s, const std::string& what, const std::vector<JointVector>& path) {
   int failures = 0;
   if (path.size() < 2 || path.front() != s.loaded.scenario.start || path.back() != s.loaded.scenario.goal) {
@@ -160,6 +167,7 @@ RunRecord record_ours(BenchScenario& s, const std::string& planner, const Planni
   r.simplify_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   r.raw = path_quality(s, path);
   r.simplified = path_quality(s, smoothed);
+  r.path_checks = path_checks(s, path);
   const std::string what = planner + " seed " + std::to_string(problem.seed);
   r.recheck_failures = dense_recheck(s, what, path) + dense_recheck(s, what + " smoothed", smoothed);
   if (r.recheck_failures > 0) r.error = "dense re-check failed";
@@ -237,6 +245,7 @@ RunRecord run_ompl(BenchScenario& s, OmplPlanner planner, const OmplOptions& opt
   if (!result.solved) return r;
   r.raw = path_quality(s, result.path);
   r.simplified = path_quality(s, result.simplified);
+  r.path_checks = path_checks(s, result.path);
   const std::string what = r.planner + " seed " + std::to_string(seed);
   r.recheck_failures = dense_recheck(s, what, result.path) + dense_recheck(s, what + " simplified", result.simplified);
   if (r.recheck_failures > 0 && r.error.empty()) r.error = "dense re-check failed";
@@ -294,6 +303,7 @@ Summary summarize(const std::string& header, const std::vector<RunRecord>& runs)
     s.times_ms.push_back(r.time_ms);
     s.mean_tree_nodes += r.tree_nodes;
     s.mean_collision_checks += static_cast<double>(r.collision_checks);
+    s.mean_path_checks += static_cast<double>(r.path_checks);
     if (r.collision_checks > 0) s.us_per_check.push_back(1000.0 * r.time_ms / static_cast<double>(r.collision_checks));
     add(s.raw, r.raw);
     add(s.simplified, r.simplified);
@@ -301,6 +311,7 @@ Summary summarize(const std::string& header, const std::vector<RunRecord>& runs)
   const double n = s.successes > 0 ? s.successes : std::numeric_limits<double>::quiet_NaN();
   s.mean_tree_nodes /= n;
   s.mean_collision_checks /= n;
+  s.mean_path_checks /= n;
   for (QualityMean* m : {&s.raw, &s.simplified}) {
     m->nodes /= n;
     m->switches /= n;
@@ -326,6 +337,7 @@ const char* metric_name(Metric m) {
     case Metric::SdMs: return "std. dev. [ms]";
     case Metric::TreeNodes: return "tree nodes";
     case Metric::CollisionChecks: return "collision checks";
+    case Metric::PathChecks: return "checks to validate the raw path once";
     case Metric::UsPerCheck: return "planning time per check, median [us]";
     case Metric::PathNodes: return "path nodes, raw";
     case Metric::Switches: return "DoF switches, raw";
@@ -359,6 +371,7 @@ std::string cell(Metric m, const Summary& s) {
     case Metric::SdMs: return fixed(standard_deviation(s.times_ms), 2);
     case Metric::TreeNodes: return fixed(s.mean_tree_nodes, 1);
     case Metric::CollisionChecks: return fixed(s.mean_collision_checks, 0);
+    case Metric::PathChecks: return fixed(s.mean_path_checks, 0);
     case Metric::UsPerCheck: return fixed(percentile(s.us_per_check, 0.5), 2);
     case Metric::PathNodes: return fixed(s.raw.nodes, 1);
     case Metric::Switches: return fixed(s.raw.switches, 1);
@@ -411,13 +424,13 @@ bool RunLog::any_errors() const noexcept {
 
 void RunLog::write_csv(const std::string& path) const {
   std::ofstream out(path);
-  out << "suite,scenario,planner,seed,success,time_ms,iterations,tree_nodes,collision_checks,"
+  out << "suite,scenario,planner,seed,success,time_ms,iterations,tree_nodes,collision_checks,path_checks,"
          "path_nodes,dof_switches,sequential_switches,multi_joint_edges,exec_time_s,roughness,cost,"
          "simplified_path_nodes,simplified_dof_switches,simplified_sequential_switches,simplified_multi_joint_edges,"
          "simplified_exec_time_s,simplified_roughness,simplified_cost,simplify_ms,recheck_failures,error\n";
   for (const auto& [suite, r] : records_) {
     out << suite << ',' << r.scenario << ',' << r.planner << ',' << r.seed << ',' << r.success << ',' << r.time_ms << ','
-        << r.iterations << ',' << r.tree_nodes << ',' << r.collision_checks << ',';
+        << r.iterations << ',' << r.tree_nodes << ',' << r.collision_checks << ',' << r.path_checks << ',';
     quality_csv(out, r.raw);
     out << ',';
     quality_csv(out, r.simplified);
@@ -445,6 +458,7 @@ void RunLog::write_json(const std::string& path, const std::string& suite, const
     json.key("iterations").value(r.iterations);
     json.key("tree_nodes").value(r.tree_nodes);
     json.key("collision_checks").value(r.collision_checks);
+    json.key("path_checks").value(r.path_checks);
     json.key("raw");
     quality_json(json, r.raw);
     json.key("simplified");
@@ -568,7 +582,7 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
 
   const std::vector<Metric> rows = {Metric::Success,       Metric::MedianMs,          Metric::P95Ms,
                                     Metric::P99Ms,         Metric::MeanMs,            Metric::TreeNodes,
-                                    Metric::CollisionChecks, Metric::UsPerCheck,
+                                    Metric::CollisionChecks, Metric::PathChecks, Metric::UsPerCheck,
                                     Metric::PathNodes,     Metric::Switches,          Metric::MultiJointEdges,
                                     Metric::ExecS,         Metric::SimplifiedPathNodes, Metric::SimplifiedSwitches,
                                     Metric::SimplifiedExecS};

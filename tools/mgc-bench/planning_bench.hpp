@@ -58,6 +58,9 @@ struct RunRecord {
   int iterations = 0;           //!< ours only
   int tree_nodes = 0;
   std::uint64_t collision_checks = 0;  //!< configurations checked for collision by the query
+  //! Checks validate_edge makes on the raw path alone at the problem's step: a floor under any
+  //! planner's checks for that path.
+  std::uint64_t path_checks = 0;
   PathQuality raw;
   PathQuality simplified;       //!< ours: smooth_path (single-axis); OMPL: its PathSimplifier
   double simplify_ms = 0.0;
@@ -82,6 +85,9 @@ struct BenchScenario {
 [[nodiscard]] planning::PlanningProblem bench_problem(BenchScenario& s, int max_iterations, std::uint64_t seed);
 
 [[nodiscard]] PathQuality path_quality(BenchScenario& s, const std::vector<planning::JointVector>& path);
+
+//! Collision checks of validating `path` edge by edge at the scenario's step (RunRecord::path_checks).
+[[nodiscard]] std::uint64_t path_checks(BenchScenario& s, const std::vector<planning::JointVector>& path);
 
 //! Edges of `path` failing the dense re-check, each printed to stderr.
 int dense_recheck(BenchScenario& s, const std::string& what, const std::vector<planning::JointVector>& path);
@@ -121,6 +127,7 @@ struct Summary {
   std::vector<double> times_ms;  //!< successful runs
   double mean_tree_nodes = 0.0;
   double mean_collision_checks = 0.0;
+  double mean_path_checks = 0.0;
   std::vector<double> us_per_check;  //!< planning time per collision check, successful runs [us]
   QualityMean raw;
   QualityMean simplified;
@@ -137,7 +144,7 @@ struct Summary {
 
 //! Rows a planning table can show.
 enum class Metric : std::uint8_t {
-  Success, MedianMs, P95Ms, P99Ms, MeanMs, MinMs, MaxMs, SdMs, TreeNodes, CollisionChecks, UsPerCheck,
+  Success, MedianMs, P95Ms, P99Ms, MeanMs, MinMs, MaxMs, SdMs, TreeNodes, CollisionChecks, PathChecks, UsPerCheck,
   PathNodes, Switches, MultiJointEdges, ExecS, Roughness, Cost,
   SimplifiedPathNodes, SimplifiedSwitches, SimplifiedExecS, SimplifiedRoughness, SimplifiedCost,
 };

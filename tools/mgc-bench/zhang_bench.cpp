@@ -137,7 +137,7 @@ int run_zhang_suite(const PlanningBenchOptions& options, const std::string& comm
   const std::vector<Metric> rows = {Metric::Success,   Metric::MeanMs,     Metric::MinMs,
                                     Metric::MaxMs,     Metric::SdMs,       Metric::MedianMs,
                                     Metric::P95Ms,     Metric::P99Ms,      Metric::TreeNodes,
-                                    Metric::CollisionChecks, Metric::UsPerCheck,
+                                    Metric::CollisionChecks, Metric::PathChecks, Metric::UsPerCheck,
                                     Metric::PathNodes, Metric::Switches,   Metric::ExecS,
                                     Metric::Roughness, Metric::Cost,       Metric::SimplifiedPathNodes,
                                     Metric::SimplifiedSwitches, Metric::SimplifiedExecS, Metric::SimplifiedRoughness,
