@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bus_bench.hpp"
+#include "kim_bench.hpp"
 #include "planning_bench.hpp"
 #include "safety_bench.hpp"
 #include "trajectory_bench.hpp"
@@ -48,7 +49,7 @@ int main(int argc, char** argv) {
   int trajectory_cases = 100000;
   mgc::bench::OmplOptions ompl;
   for (const auto& [name, run] : planning_suites()) names += std::string(names.empty() ? "" : ", ") + name;
-  app.add_option("--suite", suite_name, "suite to run: " + names + ", all (the planning suites), bus (fieldbus), trajectory or safety");
+  app.add_option("--suite", suite_name, "suite to run: " + names + ", all (the planning suites), bus (fieldbus), trajectory, safety or kim (dual crane)");
   app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51)")
       ->check(CLI::PositiveNumber);
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
@@ -70,12 +71,13 @@ int main(int argc, char** argv) {
   if (suite_name == "bus") return mgc::bench::run_bus_suite({scenarios_dir, out_dir, bus_samples});
   if (suite_name == "trajectory") return mgc::bench::run_trajectory_suite({out_dir, trajectory_cases, first_seed});
   if (suite_name == "safety") return mgc::bench::run_safety_suite({scenarios_dir, out_dir});
+  if (suite_name == "kim") return mgc::bench::run_kim_suite({scenarios_dir, out_dir, runs, first_seed});
   std::vector<std::pair<std::string, PlanningSuite>> chosen;
   for (const auto& suite : planning_suites()) {
     if (suite_name == "all" || suite_name == suite.first) chosen.push_back(suite);
   }
   if (chosen.empty()) {
-    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, all, bus, trajectory, safety; got '%s'\n", names.c_str(), suite_name.c_str());
+    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, all, bus, trajectory, safety, kim; got '%s'\n", names.c_str(), suite_name.c_str());
     return 2;
   }
   // OMPL's global seed takes effect only before its first random generator exists: set it now.
