@@ -57,6 +57,7 @@ struct RunRecord {
   double time_ms = 0.0;         //!< ours: reset + steps; OMPL: setup + solve [ms]
   int iterations = 0;           //!< ours only
   int tree_nodes = 0;
+  int planner_data_vertices = 0;  //!< OMPL only: every PlannerData vertex (BIT*: unconnected samples too)
   std::uint64_t collision_checks = 0;  //!< configurations checked for collision by the query
   //! Checks validate_edge makes on the raw path alone at the problem's step: a floor under any
   //! planner's checks for that path.
