@@ -74,6 +74,11 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
   // Set while the prediction covers the machine: it then moves away from where the obstacles
   // are, checked against their present poses, until it stands clear of the prediction again.
   bool escaping = false;
+  // Corners of the executed motion, which is straight between consecutive ones and from the last
+  // one to q: the way back, should the machine need to retreat.
+  std::vector<JointVector> came_from{q};
+  double last_repair_s = -1.0;
+  int repairs_in_place = 0;
   // Every state reached: recorded, and checked against the obstacles' present poses, since an
   // obstacle can run into a machine that has stopped.
   const auto reached = [&](const JointVector& state) {
@@ -85,6 +90,47 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
       escaping = world.hits_dynamic(state);
     }
   };
+  // One move toward `target`: the joints at their speed limits, scaled to arrive together, for
+  // one tick or up to the target.
+  struct Move {
+    JointVector to;
+    double dt_s = 0.0;
+    bool reaches = false;
+  };
+  const auto move_toward = [&](const JointVector& target) {
+    const JointVector delta = model.difference(q, target);
+    double needed_s = 0.0;
+    for (int i = 0; i < model.dof(); ++i) {
+      needed_s = std::max(needed_s, std::abs(delta[i]) / model.joints()[static_cast<std::size_t>(i)].max_velocity);
+    }
+    Move m;
+    m.reaches = needed_s <= settings.tick_s;
+    m.dt_s = m.reaches ? needed_s : settings.tick_s;
+    m.to = m.reaches ? target : model.interpolate(q, target, m.dt_s / needed_s);
+    return m;
+  };
+  const auto inside_prediction = [&] {
+    pose_obstacles(t_s, horizon_s);
+    return world.hits_dynamic(q);
+  };
+  // Back along the executed motion, checked against the present poses, until the machine stands
+  // clear of the prediction: from inside it no path can keep clear of where the obstacle is going.
+  const auto retreat = [&]() {
+    double retreated_s = 0.0;
+    Contact contact;
+    while (came_from.size() > 0 && t_s <= settings.time_limit_s && inside_prediction()) {
+      const Move m = move_toward(came_from.back());
+      pose_obstacles(t_s + m.dt_s, 0.0);
+      if (hits_dynamic_along(world, model, q, m.to, contact)) break;
+      q = m.to;
+      t_s += m.dt_s;
+      retreated_s += m.dt_s;
+      if (m.reaches && came_from.size() > 1) came_from.pop_back();
+      reached(q);
+      if (m.reaches && came_from.size() == 1 && q == came_from.front()) break;
+    }
+    return retreated_s;
+  };
   reached(q);
 
   for (;;) {
@@ -94,47 +140,52 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
       break;
     }
     if (t_s > settings.time_limit_s) break;
-    const JointVector& target = path[next];
-    const JointVector delta = model.difference(q, target);
-    double needed_s = 0.0;
-    for (int i = 0; i < model.dof(); ++i) {
-      needed_s = std::max(needed_s, std::abs(delta[i]) / model.joints()[static_cast<std::size_t>(i)].max_velocity);
-    }
-    const bool reaches = needed_s <= settings.tick_s;
-    const double dt_s = reaches ? needed_s : settings.tick_s;
-    const JointVector moved = reaches ? target : model.interpolate(q, target, dt_s / needed_s);
+    const Move m = move_toward(path[next]);
 
     // Update-Environment, then check the move (seed 000 Fig. 8 lines 8-9): the poses at the
     // move's end, which the repair then sees too. Obstacles here move centimetres per tick.
     Contact contact;
-    const double seen_s = t_s + dt_s;
-    pose_obstacles(seen_s, escaping ? 0.0 : horizon_s);
-    if (!hits_dynamic_along(world, model, q, moved, contact)) {
-      q = moved;
-      t_s += dt_s;
-      if (reaches) ++next;
+    pose_obstacles(t_s + m.dt_s, escaping ? 0.0 : horizon_s);
+    if (!hits_dynamic_along(world, model, q, m.to, contact)) {
+      q = m.to;
+      t_s += m.dt_s;
+      if (m.reaches) {
+        ++next;
+        came_from.push_back(q);
+      }
       reached(q);
       continue;
     }
 
     if (static_cast<int>(result.repairs.size()) >= settings.max_repairs) break;
+    // Blocked again and again before moving at all: the obstacles have not moved since the last
+    // repairs either, so wait a tick rather than repair against the same poses once more.
+    repairs_in_place = t_s == last_repair_s ? repairs_in_place + 1 : 0;
+    if (repairs_in_place >= 3) {
+      t_s += settings.tick_s;
+      reached(q);
+      continue;
+    }
     RepairEvent event;
-    event.t_s = seen_s;
-    event.at = q;
     event.obstacle = contact.with == Contact::With::Dynamic ? contact.other : -1;
+    if (predicted > 0 && !escaping) event.retreat_s = retreat();
+    event.t_s = t_s;
+    event.at = q;
+    pose_obstacles(t_s, escaping ? 0.0 : horizon_s);
     const double repair_start_ms = now_ms();
     status = replanner.replan(q, static_cast<int>(next));
     while (status == PlannerStatus::Running) status = replanner.step(settings.iteration_budget);
-    if (status == PlannerStatus::InvalidStart && predicted > 0) {
-      // The obstacle is predicted to reach the machine where it stands: get away from where
-      // it is now.
-      pose_obstacles(seen_s, 0.0);
+    if (status == PlannerStatus::InvalidStart && predicted > 0 && !escaping) {
+      // Still inside the prediction after retreating as far as it could: get away from where
+      // the obstacle is now.
+      pose_obstacles(t_s, 0.0);
       status = replanner.replan(q, static_cast<int>(next));
       while (status == PlannerStatus::Running) status = replanner.step(settings.iteration_budget);
       event.predicted_start_conflict = true;
       escaping = status == PlannerStatus::Solved;
     }
     event.compute_ms = now_ms() - repair_start_ms;
+    last_repair_s = t_s;
     event.status = status;
     const ReplanStats stats = replanner.stats();
     event.iterations = stats.iterations;
@@ -142,6 +193,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     event.bridge_attempts = stats.bridge_attempts;
     if (status == PlannerStatus::Solved) {
       next = 1;
+      if (came_from.back() != q) came_from.push_back(q);
       event.path_nodes = static_cast<int>(replanner.path().size());
       if (settings.record_trajectory) event.path = replanner.path();
     } else {

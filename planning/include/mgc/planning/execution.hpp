@@ -37,7 +37,11 @@ struct RepairEvent {
   int bridge_attempts = 0;
   int path_nodes = 0;     //!< of the repaired path
   std::vector<JointVector> path;  //!< the repaired path, when the trajectory is recorded
-  //! The prediction covered the machine's stop, so the repair saw the obstacles' present poses.
+  //! How long the machine backed off along its executed motion before the repair, because the
+  //! prediction covered where it had stopped. [s]
+  double retreat_s = 0.0;
+  //! The prediction still covered the machine after retreating, so the repair saw the obstacles'
+  //! present poses.
   bool predicted_start_conflict = false;
 };
 
@@ -70,8 +74,11 @@ struct ExecutionResult {
 //! each edge, the joints at their speed limits scaled to arrive together, at most one tick or up
 //! to the next waypoint per move. Before each move the dynamic obstacles go to their scenario
 //! poses at the move's end and the move is checked against them (dynamic obstacles only: the
-//! planner answers for the static ones); when it collides, the machine stops where it is (time frozen, as in the papers) and the
-//! re-planner repairs. After a failed repair the machine holds for `hold_s` and looks again.
+//! planner answers for the static ones); when it collides, the machine stops where it is and the
+//! re-planner repairs, time frozen as in the papers (blocked again before any move, the machine
+//! waits a tick before the next repair). When the prediction (prediction_horizon_s) covers the machine where it
+//! stopped, it first backs off along its executed motion until it stands clear. After a failed
+//! repair the machine holds for `hold_s` and looks again.
 //! `world` must be the problem's, built from `scenario` (dynamic obstacles in scenario order).
 //! `clock_ms` times the first plan and the repairs; without it those times are 0.
 [[nodiscard]] ExecutionResult execute_with_replanning(const Scenario& scenario, const PlanningProblem& problem,
