@@ -64,6 +64,9 @@ struct RunRecord {
   std::uint64_t path_checks = 0;
   PathQuality raw;
   PathQuality simplified;       //!< ours: smooth_path (single-axis); OMPL: its PathSimplifier
+  //! The raw path through our smooth_path (single-axis): for ours the same as simplified; for
+  //! OMPL it separates what the planner gives from what the smoother gives.
+  PathQuality our_smoothing;
   double simplify_ms = 0.0;
   int recheck_failures = 0;     //!< edges of the raw or simplified path failing the dense re-check
   std::string error;            //!< not empty: something is wrong with this run (printed loudly)
@@ -132,6 +135,7 @@ struct Summary {
   std::vector<double> us_per_check;  //!< planning time per collision check, successful runs [us]
   QualityMean raw;
   QualityMean simplified;
+  QualityMean our_smoothing;
   int recheck_failures = 0;
   int errors = 0;
   std::string note;              //!< e.g. "OMPL not built"
@@ -148,6 +152,7 @@ enum class Metric : std::uint8_t {
   Success, MedianMs, P95Ms, P99Ms, MeanMs, MinMs, MaxMs, SdMs, TreeNodes, CollisionChecks, PathChecks, UsPerCheck,
   PathNodes, Switches, MultiJointEdges, ExecS, Roughness, Cost,
   SimplifiedPathNodes, SimplifiedSwitches, SimplifiedExecS, SimplifiedRoughness, SimplifiedCost,
+  OurSmoothingSwitches, OurSmoothingExecS,
 };
 
 //! A published figure per row; rows it lacks print "-".
