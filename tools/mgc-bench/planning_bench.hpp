@@ -100,13 +100,14 @@ int dense_recheck(BenchScenario& s, const std::string& what, const std::vector<p
 //! shortcuts (the thesis's rules of action), both paths re-checked.
 [[nodiscard]] RunRecord run_ours(BenchScenario& s, const std::string& planner, int max_iterations, std::uint64_t seed);
 
-//! An already-run problem's result turned into a record (for planners configured by hand, such as
-//! con-con-mod at a chosen gamma).
+//! The record of a finished query of ours, for a planner run by hand (run_ours uses it too): the
+//! path smoothed, both measured and re-checked.
 [[nodiscard]] RunRecord record_ours(BenchScenario& s, const std::string& planner, const planning::PlanningProblem& problem,
                                     bool solved, double time_ms, int iterations, int tree_nodes,
                                     const std::vector<planning::JointVector>& path);
 
-//! OMPL's `planner` through the adapter, both paths re-checked. Without OMPL: a failed record
+//! OMPL's `planner` through the adapter; its raw path, OMPL's simplification of it and our
+//! smooth_path of it measured and re-checked. Without OMPL: a failed record
 //! whose error says "OMPL not built".
 [[nodiscard]] RunRecord run_ompl(BenchScenario& s, OmplPlanner planner, const OmplOptions& options, int max_iterations,
                                  std::uint64_t seed);
