@@ -57,10 +57,11 @@ class RateLimiter {
  public:
   //! num_joints entries of limits are used (1..kMaxJoints). Start-up: throws std::invalid_argument on
   //! a bad count or limit. The state starts at rest.
-  RateLimiter(std::span<const RateLimits> limits);
+  explicit RateLimiter(std::span<const RateLimits> limits);
 
-  //! One cycle toward target_velocity (num_joints() entries, more are ignored, fewer are a
-  //! programming error caught by an assert) over period_s [s]. The limited command is velocity().
+  //! One cycle toward target_velocity (num_joints() entries; more are ignored; fewer are a
+  //! programming error that an assert catches in debug builds, and in release builds the missing
+  //! joints are taken as 0) over period_s [s]. The limited command is velocity().
   RateLimitResult update(std::span<const double> target_velocity, double period_s) noexcept;
   //! One cycle of the controlled stop: every joint toward zero at max_acceleration.
   RateLimitResult stop(double period_s) noexcept;
