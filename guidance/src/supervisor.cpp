@@ -2,7 +2,7 @@
 #include "mgc/guidance/supervisor.hpp"
 
 #include <algorithm>
-#include <cmath>
+#include <utility>
 #include <stdexcept>
 #include <string>
 
