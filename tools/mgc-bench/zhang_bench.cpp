@@ -13,6 +13,7 @@
 #include <numeric>
 
 #include "json_writer.hpp"
+#include "replan_bench.hpp"
 #include "mgc/planning/planners/anytime.hpp"
 #include "mgc/planning/planners/bidirectional.hpp"
 
@@ -356,8 +357,15 @@ int run_zhang_suite(const PlanningBenchOptions& options, const std::string& comm
   }
   if (sweep_recheck > 0) md += "\n**Dense re-check of the anytime paths: " + std::to_string(sweep_recheck) + " edge(s) FAILED.**\n";
 
+  // Table 5: the re-planning events, on the same seeds.
+  const ReplanTables replan = run_replanning_tables(options, runs);
+  if (replan.markdown.empty()) return 2;
+  md += "\n" + replan.markdown;
+
   std::printf("%s\n", md.c_str());
   const auto extra = [&](tools::JsonWriter& json) {
+    json.key("replanning_events");
+    write_replan_json(json, replan.rows);
     json.key("anytime_sweep").begin_array();
     for (const SweepRun& r : sweep) {
       json.begin_object();
@@ -391,6 +399,8 @@ int run_zhang_suite(const PlanningBenchOptions& options, const std::string& comm
   };
   write_suite_files(options, suite, command, md, log, extra);
   if (!options.out_dir.empty()) {
+    std::ofstream replan_csv(options.out_dir + "/zhang-replan.csv");
+    write_replan_csv(replan_csv, replan.rows);
     std::ofstream csv(options.out_dir + "/zhang-anytime.csv");
     csv << "seed,gamma,success,time_ms,tree_nodes,path_nodes,roughness,exec_time_s,cost,in_stop_rule\n";
     for (const SweepRun& r : sweep) {
