@@ -19,7 +19,7 @@ constexpr const char* kScenario = "thesis-steel-frame.yaml";
 
 }  // namespace
 
-TEST_CASE("OMPL RRTConnect solves the thesis scenario through the adapter; raw and simplified paths pass the dense re-check") {
+TEST_CASE("OMPL RRTConnect solves the thesis scenario through the adapter, raw and simplified paths pass the dense re-check") {
   mgc::test::Fixture f(kScenario);
   // The straight line swings the load through the frame: a solver that ignored our checks would
   // return it.

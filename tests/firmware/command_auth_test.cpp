@@ -61,7 +61,7 @@ std::vector<std::uint8_t> encode(const operator_command_t& c) {
 
 }  // namespace
 
-TEST_CASE("key file: 32 bytes load; missing, short and long files fail with the path", "[unit]") {
+TEST_CASE("key file: 32 bytes load, missing, short and long files fail with the path", "[unit]") {
   const auto k = key_bytes(3);
   const std::string good = temp_path("good.key");
   write_file(good, std::vector<std::uint8_t>(k.begin(), k.end()));
@@ -101,7 +101,7 @@ TEST_CASE("the MAC covers every field but itself", "[unit]") {
   REQUIRE_FALSE(std::equal(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(n), buf2.begin()));
 }
 
-TEST_CASE("a signed goal is accepted once; replays and older sequences are refused", "[unit]") {
+TEST_CASE("a signed goal is accepted once, replays and older sequences are refused", "[unit]") {
   const CommandKey key(key_bytes(1));
   CommandAuthenticator auth(key);
   operator_command_t c = goal(7, 100);
@@ -222,7 +222,7 @@ TEST_CASE("the sequence floor refuses commands from before a restart", "[unit]")
   REQUIRE(auth.check(after).accepted);
 }
 
-TEST_CASE("the replay table has a fixed size; further senders are refused", "[unit]") {
+TEST_CASE("the replay table has a fixed size, further senders are refused", "[unit]") {
   const CommandKey key(key_bytes(1));
   CommandAuthenticator auth(key);
   for (std::int32_t s = 0; s < static_cast<std::int32_t>(CommandAuthenticator::kMaxSenders); ++s) {

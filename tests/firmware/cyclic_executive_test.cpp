@@ -150,7 +150,7 @@ TEST_CASE("the real clock: absolute grid, dt near the period", "[firmware][loop]
   CHECK(loop.stats().lateness.count() == 50);
 }
 
-TEST_CASE("enable_realtime never fails; it reports what it got", "[firmware]") {
+TEST_CASE("enable_realtime never fails, it reports what it got", "[firmware]") {
   const RealtimeReport r = enable_realtime(0, false);
   CHECK_FALSE(r.fifo);
   CHECK_FALSE(r.memory_locked);

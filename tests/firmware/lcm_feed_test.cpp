@@ -198,7 +198,7 @@ TEST_CASE("snapshots come out on their channels over memq://", "[lcm]") {
   REQUIRE(feed.counters().snapshots_published == 3);
 }
 
-TEST_CASE("a changed instruction is published at once; a full queue's drops reach loop_timing_t", "[lcm]") {
+TEST_CASE("a changed instruction is published at once, a full queue's drops reach loop_timing_t", "[lcm]") {
   auto snapshots = std::make_unique<SnapshotQueue>();
   auto commands = std::make_unique<CommandQueue>();
   FeedConfig config;

@@ -93,7 +93,7 @@ TEST_CASE("excavator: swing, arm and bucket words follow the angle convention", 
   REQUIRE(one(MachineKind::Excavator, 1, deg(-3)) == "boom down 3 deg");
 }
 
-TEST_CASE("small moves keep a decimal; a segment moving two joints says both", "[unit]") {
+TEST_CASE("small moves keep a decimal, a segment moving two joints says both", "[unit]") {
   REQUIRE(one(MachineKind::MobileCrane, 1, deg(0.6)) == "boom up 0.6 deg");
   REQUIRE(one(MachineKind::MobileCrane, 3, -0.05) == "hoist up 0.05 m");
   REQUIRE(one(MachineKind::TowerCrane, 1, 12.4) == "trolley out 12 m");

@@ -181,7 +181,7 @@ TEST_CASE("cart-rrt: the central-difference Jacobian matches the tower crane's a
   CHECK(jac.col(Excavator::kSwing).head<3>().norm() == Approx(tip.head<2>().norm()).epsilon(1e-6));
 }
 
-TEST_CASE("cart-rrt solves every shipped scenario; path, waypoints and the trajectory itself densely valid", "[planner]") {
+TEST_CASE("cart-rrt solves every shipped scenario, path, waypoints and the trajectory itself densely valid", "[planner]") {
   for (const char* scenario : kScenarios) {
     for (std::uint64_t seed = 0; seed < 3; ++seed) {
       CAPTURE(scenario, seed);
@@ -294,7 +294,7 @@ TEST_CASE("cart-rrt: the mobile crane's redundant joints reach the goal's along 
   }
 }
 
-TEST_CASE("cart-rrt: same seed, same path bit for bit; slicing does not change it", "[planner]") {
+TEST_CASE("cart-rrt: same seed, same path bit for bit, slicing does not change it", "[planner]") {
   for (const char* scenario : kScenarios) {
     CAPTURE(scenario);
     Fixture a(scenario, 7);

@@ -48,7 +48,7 @@ double length(const MachineModel& model, const JointVector& step, const std::vec
 
 }  // namespace
 
-TEST_CASE("multi-rrt solves the three Kim scenarios; every path densely valid, smoothing never lengthens", "[planner]") {
+TEST_CASE("multi-rrt solves the three Kim scenarios, every path densely valid, smoothing never lengthens", "[planner]") {
   int merged_runs = 0;
   for (const char* scenario : kKimScenarios) {
     for (std::uint64_t seed = 0; seed < 4; ++seed) {
@@ -69,7 +69,7 @@ TEST_CASE("multi-rrt solves the three Kim scenarios; every path densely valid, s
   CHECK(merged_runs > 0);
 }
 
-TEST_CASE("multi-rrt: the same seed gives the same path; another seed another", "[planner]") {
+TEST_CASE("multi-rrt: the same seed gives the same path, another seed another", "[planner]") {
   Fixture a("kim-s2.yaml", 3);
   Fixture b("kim-s2.yaml", 3);
   Fixture c("kim-s2.yaml", 4);
@@ -84,7 +84,7 @@ TEST_CASE("multi-rrt: the same seed gives the same path; another seed another", 
   CHECK(pa.path() != pc.path());
 }
 
-TEST_CASE("multi-rrt: growth and smoothing come in separate slices; no smoothing keeps the raw path", "[planner]") {
+TEST_CASE("multi-rrt: growth and smoothing come in separate slices, no smoothing keeps the raw path", "[planner]") {
   Fixture f("kim-s1.yaml", 1);
   MultiRrtPlanner planner;
   PlannerStatus status = planner.reset(f.problem);
@@ -118,7 +118,7 @@ TEST_CASE("multi-rrt reports an infeasible goal and a spent budget", "[planner]"
   CHECK(once.stats().iterations == 1);
 }
 
-TEST_CASE("rrt-connect runs unchanged on the six-joint problem; its paths are densely valid", "[planner]") {
+TEST_CASE("rrt-connect runs unchanged on the six-joint problem, its paths are densely valid", "[planner]") {
   for (const char* scenario : {"kim-s1.yaml", "kim-s2.yaml"}) {
     CAPTURE(scenario);
     Fixture f(scenario, 2);

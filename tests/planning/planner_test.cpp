@@ -92,7 +92,7 @@ TEST_CASE("con-con-mod with a threshold nothing fails is rrt-connect, path for p
   }
 }
 
-TEST_CASE("same seed, same path, bit for bit; slicing does not change it", "[planner]") {
+TEST_CASE("same seed, same path, bit for bit, slicing does not change it", "[planner]") {
   for (const char* name : {"limcon", "rrt", "rrt-connect", "rrt-ext-ext", "con-con-mod"}) {
     CAPTURE(name);
     Fixture a("thesis-steel-frame.yaml", 7);

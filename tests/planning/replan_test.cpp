@@ -162,7 +162,7 @@ TEST_CASE("NodeTree::trim drops flagged nodes with their subtrees and renumbers 
   CHECK(invalid[6] == 1);  // the descendant inherits the flag
 }
 
-TEST_CASE("drrt-con-con-mod completes the lift past the swinging crane; every move re-checked", "[replan]") {
+TEST_CASE("drrt-con-con-mod completes the lift past the swinging crane, every move re-checked", "[replan]") {
   const Tally t = run_seeds("thesis-steel-frame.yaml", "drrt-con-con-mod", 10);
   CHECK(t.arrived == t.runs);
   CHECK(t.contact_states == 0);
@@ -170,7 +170,7 @@ TEST_CASE("drrt-con-con-mod completes the lift past the swinging crane; every mo
   CHECK(t.repaired == t.repairs);
 }
 
-TEST_CASE("drrt repairs the lift past the swinging crane; every repair re-checked", "[replan]") {
+TEST_CASE("drrt repairs the lift past the swinging crane, every repair re-checked", "[replan]") {
   // DRRT's repairs head back into the tree it kept, often across crane 2's sweep: where the
   // prediction covers the stopped machine it does not get away in time on some seeds, and the
   // execution shows the contact (mgc-bench counts them; docs/replanning.md). Its repaired paths

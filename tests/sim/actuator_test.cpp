@@ -61,7 +61,7 @@ TEST_CASE("the acceleration limit caps how fast the velocity changes", "[sim][ac
   CHECK(a.velocity() <= 0.1);
 }
 
-TEST_CASE("an end stop halts the joint; driving away from it works", "[sim][actuator]") {
+TEST_CASE("an end stop halts the joint, driving away from it works", "[sim][actuator]") {
   HydraulicActuator a(params(), 0.99);
   for (int i = 0; i < 2000; ++i) a.step(1.0, 1e-3);
   CHECK(a.position() == 1.0);

@@ -98,7 +98,7 @@ TEST_CASE("Hal: a joint is valid only with a fresh heartbeat and a fresh sample"
   CHECK_FALSE(s4.joints[1].valid);
 }
 
-TEST_CASE("Hal: encoder alarm bits and active EMCYs mark a device Faulted; an EMCY reset clears it", "[hal][facade]") {
+TEST_CASE("Hal: encoder alarm bits and active EMCYs mark a device Faulted, an EMCY reset clears it", "[hal][facade]") {
   Bench b;
   b.beat();
   b.encoders(0, pdo::kEncoderStatusAlarm);

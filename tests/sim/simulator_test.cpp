@@ -21,7 +21,7 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 
 }  // namespace
 
-TEST_CASE("before NMT start the nodes only send heartbeats; after it, every joint is valid", "[sim][hal]") {
+TEST_CASE("before NMT start the nodes only send heartbeats, after it, every joint is valid", "[sim][hal]") {
   SimRig rig("thesis-steel-frame.yaml");
   rig.run(200'000);
   const hal::SensorSnapshot& before = *rig.last;

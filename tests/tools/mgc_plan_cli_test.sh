@@ -31,7 +31,7 @@ expect_bad "goal in collision" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasibl
 expect_bad "missing file" "^$tmp/none.yaml: cannot open the file" --scenario "$tmp/none.yaml" --check
 expect_bad "no mode" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml"
 expect_bad "both modes" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --planner limcon
-expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic, cart-rrt, got 'bogus'$" \
+expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic, cart-rrt, multi-rrt, got 'bogus'$" \
   --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner bogus
 expect_bad "planning from an infeasible goal" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasible" \
   --scenario "$tmp/goal-in-frame.yaml" --planner limcon
