@@ -11,6 +11,15 @@
 namespace mgc::planning {
 namespace {
 
+//! A re-planner's own counters with those of the query now running or last finished.
+ReplanStats with_query(ReplanStats s, const PlannerStats& query, const PlanningProblem* problem,
+                       std::uint64_t checks_at_reset) noexcept {
+  s.iterations = query.iterations;
+  s.tree_nodes = query.tree_nodes;
+  s.collision_checks = problem ? problem->world->collision_checks() - checks_at_reset : 0;
+  return s;
+}
+
 //! A single-axis tree rooted at the real goal and grown toward the machine, which DRRT trims and
 //! re-targets in place.
 class GoalRootedTree final : public SingleAxisTreePlanner {
@@ -115,12 +124,7 @@ class DrrtReplanner final : public Replanner {
   }
 
   [[nodiscard]] ReplanStats stats() const noexcept override {
-    ReplanStats s = stats_;
-    const PlannerStats t = tree_.stats();
-    s.iterations = t.iterations;
-    s.tree_nodes = t.tree_nodes;
-    s.collision_checks = problem_ ? problem_->world->collision_checks() - checks_at_reset_ : 0;
-    return s;
+    return with_query(stats_, tree_.stats(), problem_, checks_at_reset_);
   }
 
  private:
@@ -255,12 +259,7 @@ class ConConModReplanner final : public Replanner {
   }
 
   [[nodiscard]] ReplanStats stats() const noexcept override {
-    ReplanStats s = stats_;
-    const PlannerStats p = planner_.stats();
-    s.iterations = p.iterations;
-    s.tree_nodes = p.tree_nodes;
-    s.collision_checks = problem_ ? problem_->world->collision_checks() - checks_at_reset_ : 0;
-    return s;
+    return with_query(stats_, planner_.stats(), problem_, checks_at_reset_);
   }
 
  private:
