@@ -84,3 +84,27 @@ TEST_CASE("planner step() does not allocate after reset", "[unit]") {
     }
   }
 }
+
+TEST_CASE("multi-rrt and rrt-connect step() do not allocate after reset on the two-crane lifts", "[unit]") {
+  for (const char* planner_name : {"multi-rrt", "rrt-connect"}) {
+    for (const char* name : {"kim-s1.yaml", "kim-s2.yaml", "kim-s3.yaml"}) {
+      CAPTURE(planner_name, name);
+      auto loaded = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + name));
+      PlanningProblem problem = planning_problem(loaded.scenario, *loaded.model, *loaded.world);
+      problem.seed = 5;
+      auto planner = make_planner(planner_name);
+      // Warm up FCL's one-time buffers and the suspension cache with a full query, then count a
+      // second one, smoothing passes included.
+      PlannerStatus status = planner->reset(problem);
+      while (status == PlannerStatus::Running) status = planner->step(20);
+      problem.seed = 6;
+      status = planner->reset(problem);
+      const long before = mgc::test::allocation_count();
+      while (status == PlannerStatus::Running) status = planner->step(20);
+      const long allocations = mgc::test::allocation_count() - before;
+      CHECK(status == PlannerStatus::Solved);
+      CHECK(planner->stats().iterations > 0);
+      CHECK(allocations == 0);
+    }
+  }
+}
