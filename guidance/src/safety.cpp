@@ -84,6 +84,16 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
   constexpr double kFar = 1e9;  //!< stands for "no envelope limit" [m]
 
   planning::JointVector q(n);
+  using Bodies = planning::CollisionWorld::Bodies;
+  // The fixed bodies' clearance, once: only a dynamic obstacle's approach can change it.
+  double fixed_m = kFar;
+  planning::Clearance fixed;
+  if (config_.fixed_bodies_once) {
+    for (int j = 0; j < n; ++j) q[j] = state.joints[static_cast<std::size_t>(j)].position;
+    fixed = world_.clearance(q, Bodies::Fixed);
+    fixed_m = fixed.distance_m;
+    if (fixed.with == planning::Contact::With::Dynamic) fixed_m -= dynamic_reach_m;
+  }
   double t_s = 0.0;
   double prev_clearance_m = 0.0;
   double prev_envelope_m = 0.0;
@@ -94,7 +104,7 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
   double min_envelope_m = kFar;
   for (;;) {
     for (int j = 0; j < n; ++j) q[j] = profiles_[static_cast<std::size_t>(j)].at_time(t_s).position;
-    const planning::Clearance c = world_.clearance(q);
+    const planning::Clearance c = world_.clearance(q, config_.fixed_bodies_once ? Bodies::Moving : Bodies::All);
     double clearance_m = c.distance_m;
     if (c.with == planning::Contact::With::Dynamic) clearance_m -= dynamic_reach_m;
     EnvelopeDistance limit;
@@ -120,6 +130,11 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
       const bool earlier = interval && prev_clearance_m < clearance_m;
       r.nearest = earlier ? prev_contact : c;
       r.nearest_time_s = earlier ? prev_t_s : t_s;
+    }
+    if (!interval && fixed_m < r.min_clearance_m) {
+      r.min_clearance_m = fixed_m;
+      r.nearest = fixed;
+      r.nearest_time_s = 0.0;
     }
     if (limit.limit != EnvelopeLimit::None && envelope_bound_m < min_envelope_m) {
       min_envelope_m = envelope_bound_m;

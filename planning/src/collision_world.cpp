@@ -232,6 +232,7 @@ struct CollisionWorld::Impl {
   };
 
   std::vector<Body> bodies;
+  std::vector<unsigned char> body_moves;  //!< per body, see CollisionWorld::body_moves
   std::vector<std::unique_ptr<PosedObject>> statics;
   std::vector<Dynamic> dynamics;
   fcl::DynamicAABBTreeCollisionManagerd manager;
@@ -267,6 +268,34 @@ CollisionWorld::CollisionWorld(const MachineModel& model, double dilation_m)
   impl_->collision_request.enable_contact = false;
   impl_->collision_request.gjk_solver_type = fcl::GST_INDEP;
   impl_->distance_request.gjk_solver_type = fcl::GST_INDEP;
+
+  // A body is fixed when no joint moves or resizes it: compare its pose and size with every joint
+  // at the middle of its range against each joint alone at either limit (continuous joints: a
+  // quarter turn either way). Only exact equality counts, so any doubt leaves a body moving.
+  const int n = model.dof();
+  JointVector middle(n);
+  for (int j = 0; j < n; ++j) {
+    const JointSpec& spec = model.joints()[static_cast<std::size_t>(j)];
+    middle[j] = spec.continuous ? 0.0 : 0.5 * (spec.position_min + spec.position_max);
+  }
+  Kinematics reference;
+  Kinematics moved;
+  model.forward_kinematics(middle, reference);
+  impl_->body_moves.assign(impl_->bodies.size(), 0);
+  for (int j = 0; j < n; ++j) {
+    const JointSpec& spec = model.joints()[static_cast<std::size_t>(j)];
+    for (const double end : {spec.continuous ? -0.5 * std::numbers::pi : spec.position_min,
+                             spec.continuous ? 0.5 * std::numbers::pi : spec.position_max}) {
+      JointVector q = middle;
+      q[j] = end;
+      model.forward_kinematics(q, moved);
+      for (std::size_t b = 0; b < impl_->bodies.size(); ++b) {
+        const BodyState& a = reference.bodies[b];
+        const BodyState& z = moved.bodies[b];
+        if (!(a.world_from_body.matrix() == z.world_from_body.matrix()) || !(a.size_m == z.size_m)) impl_->body_moves[b] = 1;
+      }
+    }
+  }
 }
 
 CollisionWorld::~CollisionWorld() = default;
@@ -455,19 +484,26 @@ Validity CollisionWorld::validate_edge(const JointVector& from, const JointVecto
   return {};
 }
 
-Clearance CollisionWorld::clearance(const JointVector& q) noexcept {
+bool CollisionWorld::body_moves(int body) const noexcept { return impl_->body_moves[static_cast<std::size_t>(body)] != 0; }
+
+Clearance CollisionWorld::clearance(const JointVector& q, Bodies bodies) noexcept {
   Clearance c;
-  Contact contact;
-  if (!is_free(q, &contact)) {
-    c.distance_m = 0.0;
-    c.body = contact.body;
-    c.with = contact.with;
-    c.other = contact.other;
-    return c;
+  if (bodies == Bodies::Fixed) {
+    pose_machine(q);
+  } else {
+    Contact contact;
+    if (!is_free(q, &contact)) {
+      c.distance_m = 0.0;
+      c.body = contact.body;
+      c.with = contact.with;
+      c.other = contact.other;
+      return c;
+    }
   }
   auto& impl = *impl_;
   c.distance_m = std::numeric_limits<double>::infinity();
   for (std::size_t b = 0; b < impl.bodies.size(); ++b) {
+    if (bodies != Bodies::All && (impl.body_moves[b] != 0) != (bodies == Bodies::Moving)) continue;
     CollisionObject* body = impl.bodies[b].object.get();
     DistanceData data{&impl.distance_request, &impl.distance_result};
     impl.manager.distance(body, &data, distance_callback);

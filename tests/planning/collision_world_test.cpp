@@ -4,6 +4,7 @@
 #include "mgc/planning/collision_world.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/mobile_crane.hpp"
+#include "mgc/planning/random.hpp"
 #include "test_support.hpp"
 
 using namespace mgc::planning;
@@ -226,4 +227,37 @@ TEST_CASE("collision world rejects degenerate shapes", "[unit]") {
   mesh.shape.triangles = {{0, 1, 5}};
   CHECK_THROWS_AS(world.add_static(mesh), std::invalid_argument);  // index out of range
   CHECK_THROWS_AS(CollisionWorld(*crane, -0.1), std::invalid_argument);
+}
+
+TEST_CASE("clearance splits into the moving and the fixed bodies; only the carrier and undercarriage are fixed", "[unit]") {
+  for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
+    CAPTURE(name);
+    auto loaded = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + name));
+    CollisionWorld& world = *loaded.world;
+    const MachineModel& model = *loaded.model;
+    // Exactly one fixed body: the mobile crane's carrier, the tower's base, the excavator's
+    // undercarriage -- body 0 in every model.
+    for (int b = 0; b < static_cast<int>(model.bodies().size()); ++b) {
+      CAPTURE(model.bodies()[static_cast<std::size_t>(b)].name);
+      CHECK(world.body_moves(b) == (b != 0));
+    }
+    Random random(11);
+    int compared = 0;
+    for (int i = 0; i < 300; ++i) {
+      JointVector q(model.dof());
+      for (int j = 0; j < model.dof(); ++j) {
+        const JointSpec& s = model.joints()[static_cast<std::size_t>(j)];
+        q[j] = random.uniform(s.position_min, s.position_max);
+      }
+      const Clearance all = world.clearance(q);
+      if (all.distance_m == 0.0) continue;
+      const Clearance moving = world.clearance(q, CollisionWorld::Bodies::Moving);
+      const Clearance fixed = world.clearance(q, CollisionWorld::Bodies::Fixed);
+      CHECK(all.distance_m == std::min(moving.distance_m, fixed.distance_m));
+      CHECK(world.body_moves(moving.body));
+      CHECK_FALSE(world.body_moves(fixed.body));
+      ++compared;
+    }
+    CHECK(compared > 100);
+  }
 }

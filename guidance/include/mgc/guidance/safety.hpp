@@ -41,6 +41,10 @@ struct StopCheckConfig {
   int max_samples = 64;
   //! The envelope may be crossed by at most this along the stop (0: not at all). [m]
   double envelope_stop_margin_m = 0.0;
+  //! Measure the machine's fixed bodies (a carrier) once per check rather than at every sample:
+  //! the stopping motion cannot move them, so only the moving bodies' clearance sets the step. Off
+  //! only to compare against the all-bodies sweep (mgc-bench --suite safety).
+  bool fixed_bodies_once = true;
 };
 
 //! The machine's current state, one entry per joint (positions in the joint's unit).

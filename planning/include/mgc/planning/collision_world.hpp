@@ -86,8 +86,18 @@ class CollisionWorld {
   //! invalid configuration.
   [[nodiscard]] Validity validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
                                        JointVector* at = nullptr) noexcept;
-  //! Distance from the dilated machine to the nearest static or dynamic obstacle.
-  [[nodiscard]] Clearance clearance(const JointVector& q) noexcept;
+  //! Which machine bodies a clearance query measures.
+  enum class Bodies : std::uint8_t {
+    All,
+    Moving,  //!< bodies whose pose or size depends on the configuration (boom, cable, load)
+    Fixed,   //!< the rest (a carrier, an undercarriage): their clearance changes only when a dynamic obstacle moves
+  };
+  //! Distance from the dilated machine (all of it, or its moving or fixed bodies) to the nearest
+  //! static or dynamic obstacle. All and Moving report 0 when the machine collides anywhere at q.
+  [[nodiscard]] Clearance clearance(const JointVector& q, Bodies bodies = Bodies::All) noexcept;
+  //! Whether body i moves with the joints: found at construction by posing the machine at the
+  //! middle of every joint range and at each joint's limits; a body identical in all is fixed.
+  [[nodiscard]] bool body_moves(int body) const noexcept;
 
   [[nodiscard]] const MachineModel& model() const noexcept { return model_; }
   [[nodiscard]] double dilation_m() const noexcept { return dilation_m_; }
