@@ -1,0 +1,44 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/firmware/sensing.hpp"
+
+#include <algorithm>
+
+namespace mgc::firmware {
+namespace {
+
+guidance::DeviceHealth device_health(hal::Health health) noexcept {
+  switch (health) {
+    case hal::Health::Missing: return guidance::DeviceHealth::Missing;
+    case hal::Health::Alive: return guidance::DeviceHealth::Alive;
+    case hal::Health::Stale: return guidance::DeviceHealth::Stale;
+    case hal::Health::Faulted: return guidance::DeviceHealth::Faulted;
+  }
+  return guidance::DeviceHealth::Missing;
+}
+
+guidance::ValveHealth valve_health(const hal::SensorSnapshot& s) noexcept {
+  if (s.valve.health == hal::Health::Missing) return guidance::ValveHealth::Missing;
+  // The node's own account comes first: fail-safe means it lost us, which a restart clears.
+  if (s.valve_status_valid && s.valve_status.state == hal::pdo::ValveState::FailSafe) return guidance::ValveHealth::FailSafe;
+  if (s.valve.health == hal::Health::Faulted) return guidance::ValveHealth::Faulted;
+  if (s.valve_active()) return guidance::ValveHealth::Active;
+  return guidance::ValveHealth::NotStarted;
+}
+
+}  // namespace
+
+guidance::SensingInputs sensing_inputs(const hal::SensorSnapshot& snapshot) noexcept {
+  guidance::SensingInputs in;
+  const std::size_t joints = std::min<std::size_t>(snapshot.num_joints, in.joint.size());
+  for (std::size_t j = 0; j < joints; ++j) in.joint[j] = device_health(snapshot.joints[j].health);
+  in.valve = valve_health(snapshot);
+  in.bus_off = snapshot.bus_state == hal::BusState::BusOff;
+  in.uwb_gateway = device_health(snapshot.uwb_gateway.health);
+  for (std::size_t i = 0; i < snapshot.num_tags; ++i) {
+    const hal::TagReading& tag = snapshot.tags[i];
+    if (tag.fixes > 0) in.uwb_last_fix_us = std::max(in.uwb_last_fix_us, tag.t_us);
+  }
+  return in;
+}
+
+}  // namespace mgc::firmware
