@@ -229,7 +229,7 @@ TEST_CASE("collision world rejects degenerate shapes", "[unit]") {
   CHECK_THROWS_AS(CollisionWorld(*crane, -0.1), std::invalid_argument);
 }
 
-TEST_CASE("clearance splits into the moving and the fixed bodies; only the carrier and undercarriage are fixed", "[unit]") {
+TEST_CASE("clearance splits into the moving and the fixed bodies, only the carrier and undercarriage are fixed", "[unit]") {
   for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
     CAPTURE(name);
     auto loaded = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + name));
