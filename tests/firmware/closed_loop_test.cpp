@@ -10,7 +10,10 @@
 #include <vector>
 
 #include "../sim/sim_rig.hpp"
+#include "mgc/firmware/rate_limiter.hpp"
+#include "mgc/firmware/sensing.hpp"
 #include "mgc/guidance/online.hpp"
+#include "mgc/guidance/supervisor.hpp"
 #include "mgc/planning/planners/single_axis_tree.hpp"
 
 using namespace mgc;
@@ -108,4 +111,139 @@ TEST_CASE("closed loop over the bus: the crane follows a limcon plan one joint a
   CHECK(min_true_clearance_m > 0.0);
   WARN("closed loop: lift of " << waypoints.size() << " waypoints in " << cycles * dt_s << " s, least true clearance "
                                << min_true_clearance_m << " m");
+}
+
+TEST_CASE("closed loop: a loss of sensing while the crane moves ends in a controlled stop and FAULT", "[firmware][sim]") {
+  struct Case {
+    const char* fault;
+    guidance::TransitionReason reason;
+  };
+  // At 20 s of simulated time the crane is on its way (checked below).
+  const Case cases[] = {
+      {"heartbeat-lost:swing@20", guidance::TransitionReason::EncoderMissing},
+      {"encoder-dropout:boom_elevation@20", guidance::TransitionReason::EncoderStale},
+      {"heartbeat-lost:uwb@20", guidance::TransitionReason::UwbGatewayLost},
+      {"bus-off@20", guidance::TransitionReason::BusOff},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.fault);
+    sim::SimConfig config = SimRig::quiet_config();
+    std::vector<std::string> names;
+    {
+      const planning::Scenario s = planning::io::load_scenario(test::scenario_path("thesis-steel-frame.yaml"));
+      for (const auto& j : s.machine.joints) names.push_back(j.name);
+    }
+    config.faults.push_back(sim::parse_fault(c.fault, names));
+    SimRig rig("thesis-steel-frame.yaml", config);
+
+    planning::Scenario site = rig.scenario;
+    site.dynamic_obstacles.clear();
+    const auto model = planning::build_model(site);
+    const auto world = planning::build_world(site, *model);
+    planning::PlanningProblem problem = planning::planning_problem(site, *model, *world);
+    planning::LimConPlanner planner;
+    planning::PlannerStatus planned = planner.reset(problem);
+    while (planned == planning::PlannerStatus::Running) planned = planner.step(100);
+    REQUIRE(planned == planning::PlannerStatus::Solved);
+    const int n = model->dof();
+    std::vector<planning::JointVector> waypoints{planner.path().front()};
+    for (std::size_t k = 1; k < planner.path().size(); ++k) {
+      waypoints.push_back(waypoints.back() + model->difference(planner.path()[k - 1], planner.path()[k]));
+    }
+
+    std::array<guidance::JointLimits, guidance::OneJointAtATime::kMaxJoints> limits{};
+    std::array<guidance::JointState, guidance::OneJointAtATime::kMaxJoints> setpoint{};
+    std::array<guidance::JointState, guidance::OneJointAtATime::kMaxJoints> next{};
+    std::vector<firmware::RateLimits> rate_limits;
+    for (int j = 0; j < n; ++j) {
+      const planning::JointSpec& spec = model->joints()[static_cast<std::size_t>(j)];
+      limits[static_cast<std::size_t>(j)] = {0.8 * spec.max_velocity, spec.max_acceleration, spec.max_jerk};
+      setpoint[static_cast<std::size_t>(j)] = {waypoints.front()[j], 0.0, 0.0};
+      rate_limits.push_back({spec.max_velocity, spec.max_acceleration, 0.0});
+    }
+    firmware::RateLimiter limiter(rate_limits);
+    guidance::SupervisorConfig supervisor_config;
+    supervisor_config.num_joints = n;
+    guidance::Supervisor supervisor(supervisor_config);
+    guidance::SupervisorOutput out{};
+    guidance::OneJointAtATime generator;
+    const double dt_s = SimRig::kCycleUs * 1e-6;
+    std::size_t target = 1;
+    bool goal_sent = false;
+    std::array<double, hal::kMaxBusJoints> previous{};
+    bool have_previous = false;
+    std::int64_t fault_state_us = -1;
+    double speed_at_fault = 0.0;
+    std::vector<double> v_target(static_cast<std::size_t>(n), 0.0);
+
+    rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+      guidance::SupervisorInputs in;
+      in.now_us = s.t_us;
+      in.sensing = firmware::sensing_inputs(s);
+      // At rest: measured positions unchanged within a hundredth of a degree (or mm) per cycle.
+      bool at_rest = have_previous;
+      for (int j = 0; j < n && at_rest; ++j) {
+        at_rest = std::abs(s.joints[static_cast<std::size_t>(j)].position - previous[static_cast<std::size_t>(j)]) < 1.7e-4;
+      }
+      for (int j = 0; j < n; ++j) previous[static_cast<std::size_t>(j)] = s.joints[static_cast<std::size_t>(j)].position;
+      have_previous = true;
+      in.progress.at_rest = at_rest;
+      in.progress.command_at_rest = limiter.at_rest();
+      in.progress.path_complete = target >= waypoints.size();
+      if (supervisor.state() == guidance::SupervisorState::Hold && !goal_sent) {
+        in.commands.goal_request = true;
+        goal_sent = true;
+      }
+      in.planner.status = planning::PlannerStatus::Solved;  // planned before the loop started
+      out = supervisor.update(in);
+      if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+      if (out.state == guidance::SupervisorState::Fault && fault_state_us < 0) fault_state_us = s.t_us;
+
+      if (out.motion_permitted && target < waypoints.size()) {
+        const planning::JointVector& from = waypoints[target - 1];
+        const planning::JointVector& to = waypoints[target];
+        std::size_t moving = 0;
+        for (int j = 1; j < n; ++j) {
+          if (std::abs(to[j] - from[j]) > std::abs(to[static_cast<Eigen::Index>(moving)] - from[static_cast<Eigen::Index>(moving)])) {
+            moving = static_cast<std::size_t>(j);
+          }
+        }
+        if (generator.update(setpoint.data(), limits.data(), static_cast<std::size_t>(n), moving,
+                             to[static_cast<Eigen::Index>(moving)], dt_s, next.data()) == guidance::TrajectoryStatus::Finished) {
+          ++target;
+        }
+        setpoint = next;
+        for (int j = 0; j < n; ++j) {
+          const auto k = static_cast<std::size_t>(j);
+          double error = setpoint[k].position - s.joints[k].position;
+          if (model->joints()[k].continuous) error = std::remainder(error, 2.0 * std::numbers::pi);
+          v_target[k] = out.speed_scale * (setpoint[k].velocity + 1.0 * error);
+        }
+        (void)limiter.update(v_target, dt_s);
+      } else if (out.controlled_stop) {
+        (void)limiter.stop(dt_s);
+      } else {
+        std::fill(v_target.begin(), v_target.end(), 0.0);
+        (void)limiter.update(v_target, dt_s);
+      }
+      for (int j = 0; j < n; ++j) rig.command[static_cast<std::size_t>(j)] = limiter.velocity()[static_cast<std::size_t>(j)];
+    };
+
+    rig.run(SimRig::at_sim_s(20.0) - rig.t_us);
+    REQUIRE(out.state == guidance::SupervisorState::Executing);
+    for (int j = 0; j < n; ++j) speed_at_fault = std::max(speed_at_fault, std::abs(rig.sim->truth().velocity[static_cast<std::size_t>(j)]));
+    REQUIRE(speed_at_fault > 0.01);  // moving when the fault hits
+    rig.run(10'000'000);
+    CHECK(out.state == guidance::SupervisorState::Fault);
+    CHECK(out.reason == c.reason);
+    REQUIRE(fault_state_us > 0);
+    // FAULT comes once the command is at rest: detection, then the deceleration ramp of at most
+    // max_velocity / max_acceleration (2 s on the slew), and a few cycles.
+    CHECK(fault_state_us - SimRig::at_sim_s(20.0) < 3'000'000);
+    // And the true crane stands still, held there by the valve at neutral.
+    for (int j = 0; j < n; ++j) {
+      CAPTURE(j);
+      CHECK(std::abs(rig.sim->truth().velocity[static_cast<std::size_t>(j)]) < 1e-6);
+    }
+  }
 }
