@@ -5,7 +5,10 @@
 // reach the goal without touching the site.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <numbers>
 #include <vector>
 
@@ -19,53 +22,54 @@
 using namespace mgc;
 using test::SimRig;
 
-TEST_CASE("closed loop over the bus: the crane follows a limcon plan one joint at a time to the goal", "[firmware][sim]") {
-  sim::SimConfig config = SimRig::quiet_config();
-  SimRig rig("thesis-steel-frame.yaml", config);
-  rig.start();
+namespace {
 
-  // The plan, on the static site (crane 2 is the re-planning tests' business).
-  planning::Scenario site = rig.scenario;
-  site.dynamic_obstacles.clear();
-  const auto model = planning::build_model(site);
-  const auto world = planning::build_world(site, *model);
-  planning::PlanningProblem problem = planning::planning_problem(site, *model, *world);
-  planning::LimConPlanner planner;
-  planning::PlannerStatus status = planner.reset(problem);
-  while (status == planning::PlannerStatus::Running) status = planner.step(100);
-  REQUIRE(status == planning::PlannerStatus::Solved);
-  const int n = model->dof();
-  // Waypoints unwrapped from the start, so a continuous swing never takes the long way round.
-  std::vector<planning::JointVector> waypoints{planner.path().front()};
-  for (std::size_t k = 1; k < planner.path().size(); ++k) {
-    waypoints.push_back(waypoints.back() + model->difference(planner.path()[k - 1], planner.path()[k]));
-  }
+constexpr std::size_t kJoints = guidance::OneJointAtATime::kMaxJoints;
 
-  // The real machine, undilated, for the true clearance.
-  planning::Scenario bare = site;
-  bare.planner.dilation_m = 0.0;
-  const auto true_world = planning::build_world(bare, *model);
-
-  std::array<guidance::JointLimits, guidance::OneJointAtATime::kMaxJoints> limits{};
-  std::array<guidance::JointState, guidance::OneJointAtATime::kMaxJoints> setpoint{};
-  std::array<guidance::JointState, guidance::OneJointAtATime::kMaxJoints> next{};
-  for (int j = 0; j < n; ++j) {
-    const planning::JointSpec& spec = model->joints()[static_cast<std::size_t>(j)];
-    // 80 % of the machine's speed: the rest is the feedback's authority.
-    limits[static_cast<std::size_t>(j)] = {0.8 * spec.max_velocity, spec.max_acceleration, spec.max_jerk};
-    setpoint[static_cast<std::size_t>(j)] = {waypoints.front()[j], 0.0, 0.0};
-  }
-  constexpr double kFeedbackPerS = 1.0;  // velocity per position error [1/s]
-  const double dt_s = SimRig::kCycleUs * 1e-6;
+//! The lift planned with limcon on the static site (crane 2 is the re-planning tests' business),
+//! and a follower that turns it into velocity commands: one joint at a time along the plan by the
+//! online jerk-limited generator, plus position feedback on the measured joints.
+struct Follower {
+  std::unique_ptr<planning::MachineModel> model;
+  std::unique_ptr<planning::CollisionWorld> world;
+  std::vector<planning::JointVector> waypoints;  //!< unwrapped from the start
+  int n = 0;
+  std::array<guidance::JointLimits, kJoints> limits{};
+  std::array<guidance::JointState, kJoints> setpoint{};
+  std::array<guidance::JointState, kJoints> next{};
   guidance::OneJointAtATime generator;
   std::size_t target = 1;
-  double min_true_clearance_m = std::numeric_limits<double>::infinity();
-  int cycles = 0;
   bool generator_error = false;
 
-  rig.on_cycle = [&](const hal::SensorSnapshot& s) {
-    ++cycles;
-    if (target < waypoints.size()) {
+  explicit Follower(planning::Scenario site) {
+    site.dynamic_obstacles.clear();
+    model = planning::build_model(site);
+    world = planning::build_world(site, *model);
+    planning::PlanningProblem problem = planning::planning_problem(site, *model, *world);
+    planning::LimConPlanner planner;
+    planning::PlannerStatus status = planner.reset(problem);
+    while (status == planning::PlannerStatus::Running) status = planner.step(100);
+    REQUIRE(status == planning::PlannerStatus::Solved);
+    n = model->dof();
+    // Unwrapped, so a continuous swing never takes the long way round.
+    waypoints.push_back(planner.path().front());
+    for (std::size_t k = 1; k < planner.path().size(); ++k) {
+      waypoints.push_back(waypoints.back() + model->difference(planner.path()[k - 1], planner.path()[k]));
+    }
+    for (int j = 0; j < n; ++j) {
+      const planning::JointSpec& spec = model->joints()[static_cast<std::size_t>(j)];
+      // 80 % of the machine's speed: the rest is the feedback's authority.
+      limits[static_cast<std::size_t>(j)] = {0.8 * spec.max_velocity, spec.max_acceleration, spec.max_jerk};
+      setpoint[static_cast<std::size_t>(j)] = {waypoints.front()[j], 0.0, 0.0};
+    }
+  }
+
+  [[nodiscard]] bool done() const { return target >= waypoints.size(); }
+
+  //! One cycle: the next setpoint along the plan and, per joint, its velocity plus 1/s times the
+  //! position error, scaled by speed_scale, clamped to the joint's speed.
+  void command(const hal::SensorSnapshot& s, double dt_s, double speed_scale, std::vector<double>& out) {
+    if (!done()) {
       const planning::JointVector& from = waypoints[target - 1];
       const planning::JointVector& to = waypoints[target];
       std::size_t moving = 0;
@@ -74,9 +78,8 @@ TEST_CASE("closed loop over the bus: the crane follows a limcon plan one joint a
           moving = static_cast<std::size_t>(j);
         }
       }
-      const guidance::TrajectoryStatus st =
-          generator.update(setpoint.data(), limits.data(), static_cast<std::size_t>(n), moving,
-                           to[static_cast<Eigen::Index>(moving)], dt_s, next.data());
+      const guidance::TrajectoryStatus st = generator.update(setpoint.data(), limits.data(), static_cast<std::size_t>(n),
+                                                             moving, to[static_cast<Eigen::Index>(moving)], dt_s, next.data());
       if (st != guidance::TrajectoryStatus::Working && st != guidance::TrajectoryStatus::Finished) generator_error = true;
       setpoint = next;
       if (st == guidance::TrajectoryStatus::Finished) ++target;
@@ -85,31 +88,53 @@ TEST_CASE("closed loop over the bus: the crane follows a limcon plan one joint a
       const auto k = static_cast<std::size_t>(j);
       double error = setpoint[k].position - s.joints[k].position;
       if (model->joints()[k].continuous) error = std::remainder(error, 2.0 * std::numbers::pi);
-      const double v = setpoint[k].velocity + kFeedbackPerS * error;
       const double v_max = model->joints()[k].max_velocity;
-      rig.command[k] = std::clamp(v, -v_max, v_max);
+      out[k] = std::clamp(speed_scale * (setpoint[k].velocity + 1.0 * error), -v_max, v_max);
     }
+  }
+};
+
+}  // namespace
+
+TEST_CASE("closed loop over the bus: the crane follows a limcon plan one joint at a time to the goal", "[firmware][sim]") {
+  SimRig rig("thesis-steel-frame.yaml", SimRig::quiet_config());
+  rig.start();
+  Follower f(rig.scenario);
+  const int n = f.n;
+  // The real machine, undilated, for the true clearance.
+  planning::Scenario bare = rig.scenario;
+  bare.dynamic_obstacles.clear();
+  bare.planner.dilation_m = 0.0;
+  const auto true_world = planning::build_world(bare, *f.model);
+
+  const double dt_s = SimRig::kCycleUs * 1e-6;
+  double min_true_clearance_m = std::numeric_limits<double>::infinity();
+  int cycles = 0;
+  rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+    ++cycles;
+    f.command(s, dt_s, 1.0, rig.command);
     if (cycles % 5 == 0) {
       planning::JointVector q(n);
       for (int j = 0; j < n; ++j) q[j] = rig.sim->truth().position[static_cast<std::size_t>(j)];
       min_true_clearance_m = std::min(min_true_clearance_m, true_world->clearance(q).distance_m);
     }
   };
-  for (int block = 0; block < 40 && target < waypoints.size(); ++block) rig.run(5'000'000);
+  for (int block = 0; block < 40 && !f.done(); ++block) rig.run(5'000'000);
   rig.run(5'000'000);  // settle on the goal
 
-  CHECK_FALSE(generator_error);
-  REQUIRE(target == waypoints.size());
-  const planning::JointVector& goal = waypoints.back();
+  CHECK_FALSE(f.generator_error);
+  REQUIRE(f.done());
+  const planning::JointVector& goal = f.waypoints.back();
   for (int j = 0; j < n; ++j) {
     CAPTURE(j);
+    const planning::JointSpec& spec = f.model->joints()[static_cast<std::size_t>(j)];
     double error = rig.sim->truth().position[static_cast<std::size_t>(j)] - goal[j];
-    if (model->joints()[static_cast<std::size_t>(j)].continuous) error = std::remainder(error, 2.0 * std::numbers::pi);
-    CHECK(std::abs(error) < (model->joints()[static_cast<std::size_t>(j)].type == planning::JointType::Revolute ? 0.5 * std::numbers::pi / 180.0 : 0.05));
+    if (spec.continuous) error = std::remainder(error, 2.0 * std::numbers::pi);
+    CHECK(std::abs(error) < (spec.type == planning::JointType::Revolute ? 0.5 * std::numbers::pi / 180.0 : 0.05));
   }
   CAPTURE(min_true_clearance_m, cycles);
   CHECK(min_true_clearance_m > 0.0);
-  WARN("closed loop: lift of " << waypoints.size() << " waypoints in " << cycles * dt_s << " s, least true clearance "
+  WARN("closed loop: lift of " << f.waypoints.size() << " waypoints in " << cycles * dt_s << " s, least true clearance "
                                << min_true_clearance_m << " m");
 }
 
@@ -136,29 +161,11 @@ TEST_CASE("closed loop: a loss of sensing while the crane moves ends in a contro
     config.faults.push_back(sim::parse_fault(c.fault, names));
     SimRig rig("thesis-steel-frame.yaml", config);
 
-    planning::Scenario site = rig.scenario;
-    site.dynamic_obstacles.clear();
-    const auto model = planning::build_model(site);
-    const auto world = planning::build_world(site, *model);
-    planning::PlanningProblem problem = planning::planning_problem(site, *model, *world);
-    planning::LimConPlanner planner;
-    planning::PlannerStatus planned = planner.reset(problem);
-    while (planned == planning::PlannerStatus::Running) planned = planner.step(100);
-    REQUIRE(planned == planning::PlannerStatus::Solved);
-    const int n = model->dof();
-    std::vector<planning::JointVector> waypoints{planner.path().front()};
-    for (std::size_t k = 1; k < planner.path().size(); ++k) {
-      waypoints.push_back(waypoints.back() + model->difference(planner.path()[k - 1], planner.path()[k]));
-    }
-
-    std::array<guidance::JointLimits, guidance::OneJointAtATime::kMaxJoints> limits{};
-    std::array<guidance::JointState, guidance::OneJointAtATime::kMaxJoints> setpoint{};
-    std::array<guidance::JointState, guidance::OneJointAtATime::kMaxJoints> next{};
+    Follower f(rig.scenario);
+    const int n = f.n;
     std::vector<firmware::RateLimits> rate_limits;
     for (int j = 0; j < n; ++j) {
-      const planning::JointSpec& spec = model->joints()[static_cast<std::size_t>(j)];
-      limits[static_cast<std::size_t>(j)] = {0.8 * spec.max_velocity, spec.max_acceleration, spec.max_jerk};
-      setpoint[static_cast<std::size_t>(j)] = {waypoints.front()[j], 0.0, 0.0};
+      const planning::JointSpec& spec = f.model->joints()[static_cast<std::size_t>(j)];
       rate_limits.push_back({spec.max_velocity, spec.max_acceleration, 0.0});
     }
     firmware::RateLimiter limiter(rate_limits);
@@ -166,9 +173,7 @@ TEST_CASE("closed loop: a loss of sensing while the crane moves ends in a contro
     supervisor_config.num_joints = n;
     guidance::Supervisor supervisor(supervisor_config);
     guidance::SupervisorOutput out{};
-    guidance::OneJointAtATime generator;
     const double dt_s = SimRig::kCycleUs * 1e-6;
-    std::size_t target = 1;
     bool goal_sent = false;
     std::array<double, hal::kMaxBusJoints> previous{};
     bool have_previous = false;
@@ -189,7 +194,7 @@ TEST_CASE("closed loop: a loss of sensing while the crane moves ends in a contro
       have_previous = true;
       in.progress.at_rest = at_rest;
       in.progress.command_at_rest = limiter.at_rest();
-      in.progress.path_complete = target >= waypoints.size();
+      in.progress.path_complete = f.done();
       if (supervisor.state() == guidance::SupervisorState::Hold && !goal_sent) {
         in.commands.goal_request = true;
         goal_sent = true;
@@ -199,26 +204,8 @@ TEST_CASE("closed loop: a loss of sensing while the crane moves ends in a contro
       if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
       if (out.state == guidance::SupervisorState::Fault && fault_state_us < 0) fault_state_us = s.t_us;
 
-      if (out.motion_permitted && target < waypoints.size()) {
-        const planning::JointVector& from = waypoints[target - 1];
-        const planning::JointVector& to = waypoints[target];
-        std::size_t moving = 0;
-        for (int j = 1; j < n; ++j) {
-          if (std::abs(to[j] - from[j]) > std::abs(to[static_cast<Eigen::Index>(moving)] - from[static_cast<Eigen::Index>(moving)])) {
-            moving = static_cast<std::size_t>(j);
-          }
-        }
-        if (generator.update(setpoint.data(), limits.data(), static_cast<std::size_t>(n), moving,
-                             to[static_cast<Eigen::Index>(moving)], dt_s, next.data()) == guidance::TrajectoryStatus::Finished) {
-          ++target;
-        }
-        setpoint = next;
-        for (int j = 0; j < n; ++j) {
-          const auto k = static_cast<std::size_t>(j);
-          double error = setpoint[k].position - s.joints[k].position;
-          if (model->joints()[k].continuous) error = std::remainder(error, 2.0 * std::numbers::pi);
-          v_target[k] = out.speed_scale * (setpoint[k].velocity + 1.0 * error);
-        }
+      if (out.motion_permitted) {
+        f.command(s, dt_s, out.speed_scale, v_target);
         (void)limiter.update(v_target, dt_s);
       } else if (out.controlled_stop) {
         (void)limiter.stop(dt_s);
