@@ -44,6 +44,14 @@ StopCheck::StopCheck(planning::CollisionWorld& world, Envelope* envelope, const 
   }
   config_.max_samples = std::max(config_.max_samples, 1);
   config_.sample_step_m = std::max(config_.sample_step_m, 1e-3);
+  if (config_.fixed_bodies_once) {
+    // Fixed bodies stand where they stand at any configuration; the middle of every range will do.
+    planning::JointVector q(static_cast<int>(joints.size()));
+    for (std::size_t j = 0; j < joints.size(); ++j) {
+      q[static_cast<Eigen::Index>(j)] = joints[j].continuous ? 0.0 : 0.5 * (joints[j].position_min + joints[j].position_max);
+    }
+    fixed_static_ = world_.clearance(q, planning::CollisionWorld::Bodies::Fixed, planning::CollisionWorld::Obstacles::Static);
+  }
 }
 
 StopCheckResult StopCheck::check(const MachineState& state) noexcept {
@@ -85,12 +93,14 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
 
   planning::JointVector q(n);
   using Bodies = planning::CollisionWorld::Bodies;
-  // The fixed bodies' clearance, once: only a dynamic obstacle's approach can change it.
+  // The fixed bodies' clearance, once per check: to the static obstacles it was measured at
+  // construction; only a dynamic obstacle's approach can change it.
   double fixed_m = kFar;
   planning::Clearance fixed;
   if (config_.fixed_bodies_once) {
     for (int j = 0; j < n; ++j) q[j] = state.joints[static_cast<std::size_t>(j)].position;
-    fixed = world_.clearance(q, Bodies::Fixed);
+    const planning::Clearance dynamic = world_.clearance(q, Bodies::Fixed, planning::CollisionWorld::Obstacles::Dynamic);
+    fixed = dynamic.distance_m < fixed_static_.distance_m ? dynamic : fixed_static_;
     fixed_m = fixed.distance_m;
     if (fixed.with == planning::Contact::With::Dynamic) fixed_m -= dynamic_reach_m;
   }

@@ -486,7 +486,7 @@ Validity CollisionWorld::validate_edge(const JointVector& from, const JointVecto
 
 bool CollisionWorld::body_moves(int body) const noexcept { return impl_->body_moves[static_cast<std::size_t>(body)] != 0; }
 
-Clearance CollisionWorld::clearance(const JointVector& q, Bodies bodies) noexcept {
+Clearance CollisionWorld::clearance(const JointVector& q, Bodies bodies, Obstacles obstacles) noexcept {
   Clearance c;
   if (bodies == Bodies::Fixed) {
     pose_machine(q);
@@ -505,11 +505,14 @@ Clearance CollisionWorld::clearance(const JointVector& q, Bodies bodies) noexcep
   for (std::size_t b = 0; b < impl.bodies.size(); ++b) {
     if (bodies != Bodies::All && (impl.body_moves[b] != 0) != (bodies == Bodies::Moving)) continue;
     CollisionObject* body = impl.bodies[b].object.get();
-    DistanceData data{&impl.distance_request, &impl.distance_result};
-    impl.manager.distance(body, &data, distance_callback);
-    if (data.nearest >= 0 && data.best < c.distance_m) {
-      c = {data.best, static_cast<int>(b), Contact::With::Static, data.nearest};
+    if (obstacles != Obstacles::Dynamic) {
+      DistanceData data{&impl.distance_request, &impl.distance_result};
+      impl.manager.distance(body, &data, distance_callback);
+      if (data.nearest >= 0 && data.best < c.distance_m) {
+        c = {data.best, static_cast<int>(b), Contact::With::Static, data.nearest};
+      }
     }
+    if (obstacles == Obstacles::Static) continue;
     for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
       for (auto& part : impl.dynamics[d].parts) {
         impl.distance_result.clear();

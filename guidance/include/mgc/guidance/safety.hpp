@@ -92,6 +92,8 @@ class StopCheck {
   planning::CollisionWorld& world_;
   Envelope* envelope_;
   StopCheckConfig config_;
+  //! The fixed bodies' clearance to the static obstacles: constant, so measured at construction.
+  planning::Clearance fixed_static_;
   std::array<JointLimits, kMaxJoints> limits_{};
   std::array<Profile, kMaxJoints> profiles_{};
 };

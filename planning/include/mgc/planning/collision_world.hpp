@@ -92,9 +92,14 @@ class CollisionWorld {
     Moving,  //!< bodies whose pose or size depends on the configuration (boom, cable, load)
     Fixed,   //!< the rest (a carrier, an undercarriage): their clearance changes only when a dynamic obstacle moves
   };
+  //! Which obstacles a clearance query measures against.
+  enum class Obstacles : std::uint8_t { All, Static, Dynamic };
   //! Distance from the dilated machine (all of it, or its moving or fixed bodies) to the nearest
-  //! static or dynamic obstacle. All and Moving report 0 when the machine collides anywhere at q.
-  [[nodiscard]] Clearance clearance(const JointVector& q, Bodies bodies = Bodies::All) noexcept;
+  //! obstacle (static, dynamic or either). All and Moving bodies report 0 when the machine collides
+  //! anywhere at q. The fixed bodies' distance to the static obstacles never changes after
+  //! finalize(): callers may measure it once.
+  [[nodiscard]] Clearance clearance(const JointVector& q, Bodies bodies = Bodies::All,
+                                    Obstacles obstacles = Obstacles::All) noexcept;
   //! Whether body i moves with the joints: found at construction by posing the machine at the
   //! middle of every joint range and at each joint's limits; a body identical in all is fixed.
   [[nodiscard]] bool body_moves(int body) const noexcept;
