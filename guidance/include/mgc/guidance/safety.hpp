@@ -79,7 +79,8 @@ struct StopCheckResult {
 //! no throw. Not thread-safe (it poses the world's machine).
 class StopCheck {
  public:
-  //! world (and the model behind it) and envelope (may be null) must outlive the check.
+  //! world (and the model behind it) and envelope (may be null) must outlive the check; the world
+  //! must be finalized, its static site complete.
   StopCheck(planning::CollisionWorld& world, Envelope* envelope, const StopCheckConfig& config) noexcept;
 
   [[nodiscard]] StopCheckResult check(const MachineState& state) noexcept;
