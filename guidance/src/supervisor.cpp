@@ -138,6 +138,7 @@ const char* to_string(TransitionReason reason) noexcept {
     case TransitionReason::UwbGatewayLost: return "UwbGatewayLost";
     case TransitionReason::UwbSilent: return "UwbSilent";
     case TransitionReason::WatchdogTripped: return "WatchdogTripped";
+    case TransitionReason::StartBlocked: return "StartBlocked";
   }
   return "unknown";
 }
@@ -278,6 +279,7 @@ void Supervisor::transition(SupervisorState to, TransitionReason reason, std::in
     case TransitionReason::PlanFailed:
     case TransitionReason::ReplanFailed:
     case TransitionReason::GoalOccupied:
+    case TransitionReason::StartBlocked:
       // value is the planner status code: name it instead of a number.
       write_detail(record.detail, planner_text(static_cast<PlannerStatus>(value)), -1);
       break;
@@ -422,11 +424,14 @@ void Supervisor::step_state(const SupervisorInputs& in, SupervisorOutput& out) n
         retries_done_ = 0;
         transition(SupervisorState::Executing, repair ? TransitionReason::ReplanSolved : TransitionReason::PlanSolved,
                    -1, now, out);
-      } else if (repair && planner == PlannerStatus::GoalOccupied) {
-        // The obstacle may move off the goal: hold at rest and ask again later.
+      } else if (repair && (planner == PlannerStatus::GoalOccupied || planner == PlannerStatus::InvalidStart)) {
+        // The obstacle may move off the goal, or away from where the machine stopped: hold at
+        // rest and ask again later.
         retry_pending_ = true;
         next_retry_us_ = now + config_.replan_retry_interval_us;
-        transition(SupervisorState::Hold, TransitionReason::GoalOccupied, static_cast<std::int32_t>(planner), now, out);
+        transition(SupervisorState::Hold,
+                   planner == PlannerStatus::GoalOccupied ? TransitionReason::GoalOccupied : TransitionReason::StartBlocked,
+                   static_cast<std::int32_t>(planner), now, out);
       } else if (is_planner_failure(planner)) {
         retry_pending_ = false;
         retries_done_ = 0;

@@ -250,7 +250,7 @@ TEST_CASE("every transition of the table, with its reason, value and detail", "[
        TransitionReason::GoalOccupied, PlanRequest::None, static_cast<std::int32_t>(PlannerStatus::GoalOccupied),
        "GoalOccupied"},
       {"re-plan invalid start", SupervisorState::Replanning, planner(PlannerStatus::InvalidStart), 0,
-       SupervisorState::Hold, TransitionReason::ReplanFailed, PlanRequest::None,
+       SupervisorState::Hold, TransitionReason::StartBlocked, PlanRequest::None,
        static_cast<std::int32_t>(PlannerStatus::InvalidStart), "InvalidStart"},
       {"re-plan pool exhausted", SupervisorState::Replanning, planner(PlannerStatus::PoolExhausted), 0,
        SupervisorState::Hold, TransitionReason::ReplanFailed, PlanRequest::None,

@@ -86,6 +86,9 @@ class StopCheck {
   [[nodiscard]] StopCheckResult check(const MachineState& state) noexcept;
 
   [[nodiscard]] const StopCheckConfig& config() const noexcept { return config_; }
+  //! How fast the dynamic obstacles may approach from the next check on, e.g. from their tracked
+  //! motion (the configured value is the default until then). [m/s], >= 0
+  void set_dynamic_obstacle_speed(double speed_m_s) noexcept { config_.dynamic_obstacle_speed_m_s = speed_m_s; }
   //! The braking profile of joint j from the last check.
   [[nodiscard]] const Profile& stop_profile(int j) const noexcept { return profiles_[static_cast<std::size_t>(j)]; }
 

@@ -65,6 +65,9 @@ enum class TransitionReason : std::uint8_t {
   UwbGatewayLost,        //!< the UWB gateway's heartbeat is lost (or it reports a fault)
   UwbSilent,             //!< no tag fix for uwb_silence_timeout_us
   WatchdogTripped,       //!< the cyclic executive's watchdog latched (repeated deadline misses)
+  //! REPLANNING -> HOLD: the repair refused where the machine stopped (InvalidStart), e.g. inside
+  //! the margin the planner keeps from a moving obstacle; a retry is scheduled as for GoalOccupied.
+  StartBlocked,
 };
 [[nodiscard]] const char* to_string(TransitionReason reason) noexcept;
 

@@ -1,0 +1,225 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mgc/firmware/guidance_snapshot.hpp"
+#include "mgc/firmware/obstacle_tracker.hpp"
+#include "mgc/firmware/rate_limiter.hpp"
+#include "mgc/guidance/online.hpp"
+#include "mgc/guidance/rated_capacity.hpp"
+#include "mgc/guidance/safety.hpp"
+#include "mgc/guidance/supervisor.hpp"
+#include "mgc/hal/hal.hpp"
+#include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/planners/replanner.hpp"
+#include "mgc/planning/scenario.hpp"
+
+//! The controller's cycle (docs/controller.md): one step() per period turns the Hal's snapshot and
+//! the operator's commands into rate-limited joint velocity commands and a guidance snapshot. It
+//! owns everything between the bus and the feed: joint state estimate, obstacle trackers, the stop
+//! check, the rated capacity limiter, the supervisor, a bounded slice of the (re-)planner, the
+//! one-joint-at-a-time path follower and the rate limiter. The harness around it (the `mgc`
+//! binary, tests) owns the clock, the Hal and the LCM feed.
+namespace mgc::firmware {
+
+struct ControllerConfig {
+  std::string replanner = "drrt";  //!< make_replanner() name
+  //! Planner iterations per cycle while planning or re-planning: bounded work in the cycle, the
+  //! query spread over cycles. [-]
+  int plan_iterations_per_cycle = 10;
+  //! The planned motion runs at this fraction of each joint's speed and acceleration; the rest is
+  //! the position feedback's authority. [-]
+  double follow_speed_fraction = 0.8;
+  double position_gain_per_s = 2.0;   //!< feedback on the setpoint's position error [1/s]
+  //! A joint whose estimated speed stays below this is at rest. [rad/s | m/s]
+  double rest_speed = 0.005;
+  //! Weight of a new velocity sample in the estimate's first-order filter (1: no filter). [-]
+  double velocity_filter = 0.5;
+  //! Margin the planner keeps beyond the scenario's dilation: the stop check's stop margin, so
+  //! that a planned path does not itself trigger a stop, plus what the follower may lag. Dynamic
+  //! obstacles are grown further, by how far a standing one may come while the machine stops
+  //! (obstacle_speed_floor_m_s times the longest stop from full speed). [m]
+  double planning_margin_m = 1.0;
+  //! The margin of the escape plan, for a machine that an obstacle stopped next to, within the
+  //! planning margin: the stop margin plus a quarter metre of following allowance. [m]
+  double escape_margin_m = 0.75;
+  //! Added to each obstacle's tracked speed: UWB noise left over the window, and a motion that is
+  //! only starting. The stop check's dynamic_obstacle_speed_m_s stands until a window is full. [m/s]
+  double obstacle_speed_floor_m_s = 0.3;
+  //! Span over which an obstacle's speed is measured from its tracked poses. [µs]
+  std::int64_t obstacle_speed_window_us = 1'000'000;
+  //! A repair after a safety stop waits until no obstacle moves faster than its floor plus this:
+  //! a path planned around an obstacle still on its way would be cut again at once. [m/s]
+  double settled_speed_m_s = 0.2;
+  guidance::StopCheckConfig stop_check{};
+  //! num_joints and uwb_required are set from the scenario.
+  guidance::SupervisorConfig supervisor{};
+  TrackerConfig tracker{};
+  guidance::RatedCapacityConfig rated_capacity{};
+};
+
+//! Operator commands of this cycle, already authenticated (command_auth.hpp).
+struct ControllerCommands {
+  bool stop = false;
+  bool goal_request = false;
+  bool acknowledge = false;
+  //! The requested goal; goal_joints == 0 means the scenario's goal. [rad | m]
+  std::array<double, kMaxJoints> goal{};
+  int goal_joints = 0;
+};
+
+struct ControllerOutput {
+  std::span<const double> velocity;  //!< for Hal::write [rad/s | m/s]
+  bool start_nodes = false;          //!< send NMT start to all nodes
+  bool reset_watchdog = false;       //!< an acknowledgement was accepted
+  guidance::SupervisorOutput supervisor{};
+};
+
+//! What happened over the controller's life, for the summary and the tests.
+struct ControllerStats {
+  std::uint64_t cycles = 0;
+  int plans = 0;             //!< first plans started (goal requests accepted)
+  int replans = 0;           //!< repairs started after a safety stop
+  int escapes = 0;           //!< repairs planned anew because an obstacle stopped within the planning margin
+  int safety_stops = 0;      //!< EXECUTING -> STOPPING for the stop check, the envelope or the load chart
+  int goals_reached = 0;
+  int commands_rejected = 0; //!< operator commands the supervisor refused
+  double min_clearance_m = 1e9;  //!< least clearance the stop check reported while moving [m]
+  std::uint64_t planner_cycles = 0;  //!< cycles with a planner slice
+  std::uint64_t rcl_cut_cycles = 0;  //!< cycles in which the load chart cut a motion
+  std::uint64_t estimate_invalid_cycles = 0;  //!< cycles without a valid position of every joint
+  std::uint64_t trajectory_errors = 0;  //!< cycles whose setpoint generator refused its input
+};
+
+class Controller {
+ public:
+  //! Builds the model, the planning and safety worlds, the trackers and the re-planner for the
+  //! scenario. Start-up only: allocates, throws std::invalid_argument naming what is wrong.
+  Controller(const planning::Scenario& scenario, const ControllerConfig& config);
+
+  //! One cycle. dt_us: true time since the previous cycle (CycleTiming::dt_us; the period on the
+  //! first). RT-safe: no allocation, no throw, no clock.
+  ControllerOutput step(const hal::SensorSnapshot& snapshot, std::int64_t dt_us, const ControllerCommands& commands,
+                        bool watchdog_tripped) noexcept;
+
+  //! The guidance snapshot of the last step() (timing left for the harness to fill).
+  [[nodiscard]] const GuidanceSnapshot& snapshot() const noexcept { return snap_; }
+  [[nodiscard]] GuidanceSnapshot& snapshot() noexcept { return snap_; }
+  [[nodiscard]] const ControllerStats& stats() const noexcept { return stats_; }
+  [[nodiscard]] guidance::Supervisor& supervisor() noexcept { return supervisor_; }
+  [[nodiscard]] const guidance::StopCheckResult& stop_check() const noexcept { return check_; }
+  [[nodiscard]] const planning::MachineModel& model() const noexcept { return *model_; }
+  //! The planner whose path the machine follows.
+  [[nodiscard]] const planning::Replanner& planner() const noexcept { return *active_; }
+  //! The measured joint positions, continuous joints unwrapped from the first reading. [rad | m]
+  [[nodiscard]] const planning::JointVector& position() const noexcept { return q_unwrapped_; }
+  [[nodiscard]] int num_joints() const noexcept { return n_; }
+  [[nodiscard]] const ObstacleTracker& tracker(std::size_t i) const noexcept { return trackers_[i]; }
+  [[nodiscard]] std::size_t num_trackers() const noexcept { return trackers_.size(); }
+  //! The speed the stop check assumes for the dynamic obstacles this cycle. [m/s]
+  [[nodiscard]] double obstacle_speed_m_s() const noexcept { return obstacle_speed_m_s_; }
+  //! The follower's path has been completed (the goal's segment finished).
+  [[nodiscard]] bool path_complete() const noexcept { return following_ && target_ >= path_size_; }
+
+ private:
+  void estimate(const hal::SensorSnapshot& s, double dt_s) noexcept;
+  void track_obstacles(const hal::SensorSnapshot& s) noexcept;
+  void run_safety() noexcept;
+  void handle_plan_request(const guidance::SupervisorOutput& out) noexcept;
+  //! Every tracked obstacle's speed is measured and near its floor.
+  [[nodiscard]] bool obstacles_settled() const noexcept;
+  void load_path() noexcept;
+  //! The follower's velocity command into v_target_.
+  void follow(double dt_s, double speed_scale) noexcept;
+  void fill_snapshot(const hal::SensorSnapshot& s, const guidance::SupervisorOutput& out) noexcept;
+  void raise(std::size_t kind, bool active, std::int8_t severity, std::int8_t source, std::int8_t clear,
+             std::int8_t unit, double value, double limit, std::int32_t index) noexcept;
+
+  ControllerConfig config_;
+  planning::Scenario scenario_;
+  std::unique_ptr<planning::MachineModel> model_;
+  std::unique_ptr<planning::CollisionWorld> plan_world_;    //!< dilated by the planning margin
+  std::unique_ptr<planning::CollisionWorld> safety_world_;  //!< the scenario's dilation
+  planning::PlanningProblem problem_{};
+  planning::ReplanSettings replan_settings_{};
+  std::unique_ptr<planning::Replanner> replanner_;
+  //! For a machine stopped within the margins of plan_world_: the same planner in a world that
+  //! keeps escape_margin_m, the obstacles at their own size.
+  std::unique_ptr<planning::CollisionWorld> escape_world_;
+  planning::PlanningProblem escape_problem_{};
+  std::unique_ptr<planning::Replanner> escape_;
+  planning::Replanner* active_ = nullptr;  //!< whose path is followed
+  bool replan_pending_ = false;            //!< a repair waits for the obstacles to settle
+  planning::PlannerStatus planner_status_ = planning::PlannerStatus::NotReset;
+  std::vector<ObstacleTracker> trackers_;
+  //! Tracked poses of one obstacle, one every tenth of the speed window, for its speed.
+  struct PoseHistory {
+    static constexpr std::size_t kSamples = 11;
+    std::array<std::int64_t, kSamples> t_us{};
+    std::array<Eigen::Vector3d, kSamples> position_m{};
+    std::array<double, kSamples> yaw_rad{};
+    std::size_t count = 0;
+    std::size_t head = 0;        //!< next slot to write
+    double radius_m = 0.0;       //!< farthest point of the obstacle from its frame origin
+    double speed_m_s = 0.0;      //!< bound on any of its points' speed over the window, floor included
+    bool window_full = false;
+  };
+  std::vector<PoseHistory> histories_;  //!< one per tracker
+  double obstacle_speed_m_s_ = 0.0;     //!< what the stop check assumes this cycle
+  guidance::StopCheck stop_check_;
+  guidance::StopCheckResult check_{};
+  const planning::MobileCrane* crane_ = nullptr;
+  std::unique_ptr<guidance::RatedCapacityLimiter> rcl_;
+  guidance::RatedCapacityResult rcl_result_{};
+  guidance::Supervisor supervisor_;
+  RateLimiter limiter_;
+  guidance::OneJointAtATime generator_{};
+  int n_ = 0;
+
+  // Estimate.
+  bool have_reading_ = false;
+  planning::JointVector q_raw_;        //!< last decoded positions
+  planning::JointVector q_unwrapped_;  //!< continuous joints unwrapped [rad | m]
+  planning::JointVector q_wrapped_;    //!< in the model's ranges, for the planner [rad | m]
+  std::array<std::int64_t, kMaxJoints> sample_us_{};
+  std::array<double, kMaxJoints> velocity_{};
+  std::array<double, kMaxJoints> acceleration_{};
+  bool at_rest_ = false;
+  bool joints_valid_ = false;
+
+  // Goal and follower.
+  planning::JointVector goal_;
+  bool following_ = false;
+  std::size_t path_size_ = 0;
+  std::size_t target_ = 1;  //!< index of the waypoint being approached
+  planning::JointVector origin_;  //!< unwrapped measured position at load: waypoint 0
+  planning::JointVector target_unwrapped_;
+  std::array<guidance::JointLimits, kMaxJoints> follow_limits_{};
+  std::array<guidance::JointState, kMaxJoints> setpoint_{};
+  std::array<guidance::JointState, kMaxJoints> next_{};
+  std::array<double, kMaxJoints> v_target_{};
+  planning::JointVector v_command_;  //!< for the load chart's cut
+  int moving_joint_ = -1;
+  std::uint32_t plan_id_ = 0;
+
+  // Alerts: one slot per kind, an id from raise to clear.
+  static constexpr std::size_t kAlertKinds = 7;
+  std::array<SnapshotAlert, kAlertKinds> alerts_{};
+  std::array<bool, kAlertKinds> alert_active_{};
+  std::int32_t next_alert_id_ = 1;
+  std::int64_t rejected_until_us_ = 0;
+
+  planning::Kinematics kinematics_{};
+  std::int64_t now_us_ = 0;
+  guidance::SupervisorState previous_state_ = guidance::SupervisorState::Init;
+  GuidanceSnapshot snap_{};
+  ControllerStats stats_{};
+};
+
+}  // namespace mgc::firmware

@@ -1,0 +1,625 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/firmware/controller.hpp"
+
+#include <mgc/alert_t.hpp>
+#include <mgc/machine_state_t.hpp>
+#include <mgc/operator_guidance_t.hpp>
+#include <mgc/plan_t.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "mgc/firmware/operator_words.hpp"
+#include "mgc/firmware/sensing.hpp"
+#include "mgc/planning/mobile_crane.hpp"
+
+namespace mgc::firmware {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+//! A setpoint this close to its waypoint has reached it (the generator ends exactly on target). [rad | m]
+constexpr double kReachedTolerance = 1e-6;
+
+//! Longest time-optimal stop of any joint from its full speed. [s]
+double longest_stop_s(const planning::MachineModel& model) {
+  double t_s = 0.0;
+  for (const planning::JointSpec& j : model.joints()) {
+    t_s = std::max(t_s, j.max_velocity / j.max_acceleration + j.max_acceleration / j.max_jerk);
+  }
+  return t_s;
+}
+
+//! The planner's world: every body dilated by margin_m more than the scenario says, and every
+//! dynamic obstacle grown by dynamic_margin_m (boxes, cylinders and capsules; a mesh keeps its
+//! shape and only the dilation).
+std::unique_ptr<planning::CollisionWorld> planning_world(planning::Scenario scenario, const planning::MachineModel& model,
+                                                        double margin_m, double dynamic_margin_m) {
+  scenario.planner.dilation_m += margin_m;
+  for (planning::DynamicObstacleSpec& d : scenario.dynamic_obstacles) {
+    for (planning::ShapePart& part : d.obstacle.parts) {
+      switch (part.kind) {
+        case planning::ShapeKind::Box:
+          part.size_m += Eigen::Vector3d::Constant(2.0 * dynamic_margin_m);
+          break;
+        case planning::ShapeKind::Cylinder:
+          part.size_m += Eigen::Vector3d(2.0 * dynamic_margin_m, 2.0 * dynamic_margin_m, 2.0 * dynamic_margin_m);
+          break;
+        case planning::ShapeKind::Capsule:
+          part.size_m += Eigen::Vector3d(2.0 * dynamic_margin_m, 2.0 * dynamic_margin_m, 0.0);
+          break;
+        case planning::ShapeKind::Mesh:
+          break;
+      }
+    }
+  }
+  return planning::build_world(scenario, model);
+}
+
+guidance::SupervisorConfig supervisor_config(guidance::SupervisorConfig c, const planning::Scenario& s) {
+  c.num_joints = static_cast<int>(s.machine.joints.size());
+  bool tagged = false;
+  for (const auto& d : s.dynamic_obstacles) tagged = tagged || !d.tags.empty();
+  c.uwb_required = tagged;
+  return c;
+}
+
+RateLimiter make_limiter(const planning::MachineModel& model) {
+  const auto limits = rate_limits_from(model.joints(), JerkLimit::Off);
+  return RateLimiter(std::span<const RateLimits>(limits.data(), static_cast<std::size_t>(model.dof())));
+}
+
+std::int8_t state_code(guidance::SupervisorState s) noexcept {
+  // machine_state_t's SUPERVISOR_* are the supervisor's states in order, from 1.
+  return static_cast<std::int8_t>(static_cast<int>(s) + 1);
+}
+
+// Alert slots, one per kind of condition.
+enum AlertKind : std::size_t {
+  kAlertCollision = 0,
+  kAlertLoadChart,
+  kAlertFault,
+  kAlertEstop,
+  kAlertPlanner,
+  kAlertOperator,
+  kAlertTracking,
+};
+
+std::int8_t fault_source(guidance::TransitionReason r) noexcept {
+  return r == guidance::TransitionReason::WatchdogTripped ? mgc::alert_t::SOURCE_WATCHDOG : mgc::alert_t::SOURCE_SENSING;
+}
+
+}  // namespace
+
+Controller::Controller(const planning::Scenario& scenario, const ControllerConfig& config)
+    : config_(config),
+      scenario_(scenario),
+      model_(planning::build_model(scenario_)),
+      plan_world_(planning_world(scenario_, *model_, config.planning_margin_m,
+                                 config.obstacle_speed_floor_m_s * longest_stop_s(*model_))),
+      safety_world_(planning::build_world(scenario_, *model_)),
+      problem_(planning::planning_problem(scenario_, *model_, *plan_world_)),
+      replanner_(planning::make_replanner(config.replanner)),
+      escape_world_(planning_world(scenario_, *model_, config.escape_margin_m, 0.0)),
+      escape_problem_(planning::planning_problem(scenario_, *model_, *escape_world_)),
+      escape_(planning::make_replanner(config.replanner)),
+      stop_check_(*safety_world_, nullptr, config.stop_check),
+      supervisor_(supervisor_config(config.supervisor, scenario_)),
+      limiter_(make_limiter(*model_)),
+      n_(model_->dof()) {
+  if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
+  if (config.plan_iterations_per_cycle < 1) throw std::invalid_argument("controller: plan_iterations_per_cycle must be >= 1");
+  if (!(config.follow_speed_fraction > 0.0 && config.follow_speed_fraction <= 1.0)) {
+    throw std::invalid_argument("controller: follow_speed_fraction must be in (0, 1]");
+  }
+  if (n_ > static_cast<int>(guidance::OneJointAtATime::kMaxJoints)) throw std::invalid_argument("controller: too many joints");
+  if (!(config.obstacle_speed_floor_m_s >= 0.0) || config.obstacle_speed_window_us <= 0) {
+    throw std::invalid_argument("controller: obstacle_speed_floor_m_s must be >= 0 and obstacle_speed_window_us > 0");
+  }
+  for (const auto& d : scenario_.dynamic_obstacles) {
+    if (d.tags.empty()) continue;
+    trackers_.emplace_back(d, config.tracker);
+    PoseHistory h;
+    for (const planning::ShapePart& part : d.obstacle.parts) {
+      const double reach = part.kind == planning::ShapeKind::Mesh ? 0.0 : 0.5 * part.size_m.norm();
+      h.radius_m = std::max(h.radius_m, part.pose.translation().norm() + reach);
+      for (const Eigen::Vector3d& v : part.vertices_m) h.radius_m = std::max(h.radius_m, (part.pose * v).norm());
+    }
+    histories_.push_back(h);
+  }
+  obstacle_speed_m_s_ = config.stop_check.dynamic_obstacle_speed_m_s;
+  replan_settings_.max_iterations = scenario_.planner.replan_max_iterations;
+  replan_settings_.goal_bias = scenario_.planner.replan_goal_bias;
+  // Sizes every buffer of the re-planner now, so that the goal request in the loop does not.
+  (void)replanner_->reset(problem_, replan_settings_);
+  (void)escape_->reset(escape_problem_, replan_settings_);
+  planner_status_ = planning::PlannerStatus::NotReset;
+  active_ = replanner_.get();
+
+  if (model_->kind() == planning::MachineKind::MobileCrane) {
+    crane_ = dynamic_cast<const planning::MobileCrane*>(model_.get());
+    if (crane_ && scenario_.task) rcl_ = std::make_unique<guidance::RatedCapacityLimiter>(*crane_, config.rated_capacity);
+  }
+  for (int j = 0; j < n_; ++j) {
+    const planning::JointSpec& spec = model_->joints()[static_cast<std::size_t>(j)];
+    follow_limits_[static_cast<std::size_t>(j)] = {config.follow_speed_fraction * spec.max_velocity,
+                                                   config.follow_speed_fraction * spec.max_acceleration, spec.max_jerk};
+  }
+  q_raw_ = planning::JointVector::Zero(n_);
+  q_unwrapped_ = q_raw_;
+  q_wrapped_ = q_raw_;
+  goal_ = scenario_.goal;
+  origin_ = q_raw_;
+  target_unwrapped_ = q_raw_;
+  v_command_ = q_raw_;
+  snap_.machine_kind = model_->kind();
+  snap_.num_joints = n_;
+}
+
+void Controller::estimate(const hal::SensorSnapshot& s, double dt_s) noexcept {
+  joints_valid_ = s.all_joints_valid() && s.num_joints >= n_;
+  if (!joints_valid_) {
+    ++stats_.estimate_invalid_cycles;
+    return;
+  }
+  bool rest = true;
+  for (int j = 0; j < n_; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    const hal::JointReading& r = s.joints[k];
+    const bool continuous = model_->joints()[k].continuous;
+    if (!have_reading_) {
+      q_raw_[j] = r.position;
+      q_unwrapped_[j] = r.position;
+      sample_us_[k] = r.t_us;
+      continue;
+    }
+    double delta = r.position - q_raw_[j];
+    if (continuous) delta = std::remainder(delta, kTwoPi);
+    q_raw_[j] = r.position;
+    q_unwrapped_[j] += delta;
+    if (r.t_us > sample_us_[k]) {
+      const double sample_dt_s = static_cast<double>(r.t_us - sample_us_[k]) * 1e-6;
+      const double v = delta / sample_dt_s;
+      const double v_new = velocity_[k] + config_.velocity_filter * (v - velocity_[k]);
+      acceleration_[k] += config_.velocity_filter * ((v_new - velocity_[k]) / std::max(sample_dt_s, dt_s) - acceleration_[k]);
+      velocity_[k] = v_new;
+      sample_us_[k] = r.t_us;
+    }
+    rest = rest && std::abs(velocity_[k]) < config_.rest_speed;
+  }
+  for (int j = 0; j < n_; ++j) {
+    const double q = q_unwrapped_[j];
+    q_wrapped_[j] = model_->joints()[static_cast<std::size_t>(j)].continuous ? std::remainder(q, kTwoPi) : q;
+  }
+  at_rest_ = have_reading_ && rest;
+  have_reading_ = true;
+}
+
+void Controller::track_obstacles(const hal::SensorSnapshot& s) noexcept {
+  std::size_t t = 0;
+  for (std::size_t d = 0; d < scenario_.dynamic_obstacles.size(); ++d) {
+    if (scenario_.dynamic_obstacles[d].tags.empty()) continue;
+    PoseHistory& h = histories_[t];
+    ObstacleTracker& tracker = trackers_[t++];
+    if (tracker.update(s, now_us_)) {
+      const Eigen::Isometry3d pose = tracker.pose();
+      plan_world_->set_dynamic_pose(static_cast<int>(d), pose);
+      escape_world_->set_dynamic_pose(static_cast<int>(d), pose);
+      safety_world_->set_dynamic_pose(static_cast<int>(d), pose);
+      const std::int64_t spacing_us = config_.obstacle_speed_window_us / static_cast<std::int64_t>(PoseHistory::kSamples - 1);
+      const std::size_t newest = (h.head + PoseHistory::kSamples - 1) % PoseHistory::kSamples;
+      if (h.count == 0 || now_us_ - h.t_us[newest] >= spacing_us) {
+        h.t_us[h.head] = now_us_;
+        h.position_m[h.head] = tracker.position_m();
+        h.yaw_rad[h.head] = tracker.yaw_rad();
+        h.head = (h.head + 1) % PoseHistory::kSamples;
+        h.count = std::min(h.count + 1, PoseHistory::kSamples);
+        if (h.count == PoseHistory::kSamples) {
+          // Oldest against newest: over a whole window the tags' noise averages down.
+          const std::size_t oldest = h.head;
+          const std::size_t latest = (h.head + PoseHistory::kSamples - 1) % PoseHistory::kSamples;
+          const double span_s = static_cast<double>(h.t_us[latest] - h.t_us[oldest]) * 1e-6;
+          const double yaw_rate = std::abs(std::remainder(h.yaw_rad[latest] - h.yaw_rad[oldest], kTwoPi)) / span_s;
+          h.speed_m_s = (h.position_m[latest] - h.position_m[oldest]).norm() / span_s + yaw_rate * h.radius_m +
+                        config_.obstacle_speed_floor_m_s;
+          h.window_full = true;
+        }
+      }
+    }
+    if (!tracker.valid(now_us_)) {
+      h.count = 0;
+      h.window_full = false;
+    }
+  }
+  // Until every obstacle's window is full, the configured speed stands (or more, if measured).
+  double speed_m_s = 0.0;
+  bool all_measured = true;
+  for (const PoseHistory& h : histories_) {
+    speed_m_s = std::max(speed_m_s, h.window_full ? h.speed_m_s : 0.0);
+    all_measured = all_measured && h.window_full;
+  }
+  if (!all_measured) speed_m_s = std::max(speed_m_s, config_.stop_check.dynamic_obstacle_speed_m_s);
+  obstacle_speed_m_s_ = speed_m_s;
+  stop_check_.set_dynamic_obstacle_speed(speed_m_s);
+}
+
+void Controller::run_safety() noexcept {
+  guidance::MachineState state;
+  for (int j = 0; j < n_; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    // The command leads the hydraulics: brake from whichever is faster, the command or the estimate.
+    const double v_cmd = limiter_.velocity()[k];
+    const bool command_faster = std::abs(v_cmd) > std::abs(velocity_[k]);
+    // The estimated acceleration is a second difference of encoder counts: within the joint's
+    // limit it is plausible, beyond it it is noise that would stretch the stop without cause.
+    const double a_max = model_->joints()[k].max_acceleration;
+    state.joints[k] = {q_wrapped_[j], command_faster ? v_cmd : velocity_[k],
+                       command_faster ? limiter_.acceleration()[k] : std::clamp(acceleration_[k], -a_max, a_max)};
+  }
+  check_ = stop_check_.check(state);
+  if (rcl_) {
+    rcl_result_ = rcl_->limit_velocity(q_wrapped_, rcl_->task_load_lb(), v_command_);
+  }
+}
+
+void Controller::load_path() noexcept {
+  following_ = true;
+  path_size_ = active_->path().size();
+  target_ = 1;
+  origin_ = q_unwrapped_;
+  target_unwrapped_ = path_size_ > 1 ? origin_ + model_->difference(active_->path()[0], active_->path()[1]) : origin_;
+  for (int j = 0; j < n_; ++j) setpoint_[static_cast<std::size_t>(j)] = {q_unwrapped_[j], 0.0, 0.0};
+  moving_joint_ = -1;
+  ++plan_id_;
+}
+
+void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noexcept {
+  using planning::PlannerStatus;
+  if (out.plan_request == guidance::PlanRequest::Plan) {
+    following_ = false;
+    replan_pending_ = false;
+    active_ = replanner_.get();
+    problem_.start = q_wrapped_;
+    problem_.goal = goal_;
+    planner_status_ = active_->reset(problem_, replan_settings_);
+    ++stats_.plans;
+  } else if (out.plan_request == guidance::PlanRequest::Replan) {
+    following_ = false;
+    replan_pending_ = true;
+    planner_status_ = PlannerStatus::Running;
+  }
+  if (out.state != guidance::SupervisorState::Replanning) replan_pending_ = false;
+  if (replan_pending_ && obstacles_settled()) {
+    // The repair starts where the machine stopped, on its way to waypoint target_.
+    replan_pending_ = false;
+    const int next = static_cast<int>(std::min(target_, path_size_ > 0 ? path_size_ - 1 : 0));
+    planner_status_ = active_->replan(q_wrapped_, std::max(next, 1));
+    ++stats_.replans;
+    if (planner_status_ == PlannerStatus::InvalidStart) {
+      // An obstacle stopped within the margin the planner keeps from moving obstacles: plan anew
+      // in the world that keeps a smaller margin, still beyond the stop check's stop margin.
+      active_ = escape_.get();
+      escape_problem_.start = q_wrapped_;
+      escape_problem_.goal = goal_;
+      planner_status_ = active_->reset(escape_problem_, replan_settings_);
+      ++stats_.escapes;
+    }
+  }
+  const bool planning = out.state == guidance::SupervisorState::Planning || out.state == guidance::SupervisorState::Replanning;
+  if (planning && !replan_pending_ && planner_status_ == PlannerStatus::Running) {
+    planner_status_ = active_->step(config_.plan_iterations_per_cycle);
+    ++stats_.planner_cycles;
+  }
+}
+
+bool Controller::obstacles_settled() const noexcept {
+  for (const PoseHistory& h : histories_) {
+    if (!h.window_full || h.speed_m_s > config_.obstacle_speed_floor_m_s + config_.settled_speed_m_s) return false;
+  }
+  return true;
+}
+
+void Controller::follow(double dt_s, double speed_scale) noexcept {
+  for (int j = 0; j < n_; ++j) v_target_[static_cast<std::size_t>(j)] = 0.0;
+  if (!following_) return;
+  if (target_ < path_size_ && speed_scale > 0.0) {
+    // The joint farthest from its target moves; the others hold. An edge of several joints is
+    // taken joint by joint, largest first.
+    int moving = -1;
+    double largest = 0.0;
+    for (int j = 0; j < n_; ++j) {
+      const double remaining = std::abs(target_unwrapped_[j] - setpoint_[static_cast<std::size_t>(j)].position);
+      if (remaining > kReachedTolerance && remaining > largest) {
+        largest = remaining;
+        moving = j;
+      }
+    }
+    if (moving < 0) moving = moving_joint_ >= 0 ? moving_joint_ : 0;
+    moving_joint_ = moving;
+    const guidance::TrajectoryStatus st =
+        generator_.update(setpoint_.data(), follow_limits_.data(), static_cast<std::size_t>(n_), static_cast<std::size_t>(moving),
+                          target_unwrapped_[moving], dt_s * speed_scale, next_.data());
+    if (st == guidance::TrajectoryStatus::Working || st == guidance::TrajectoryStatus::Finished) {
+      setpoint_ = next_;
+      bool reached = st == guidance::TrajectoryStatus::Finished;
+      for (int j = 0; j < n_ && reached; ++j) {
+        reached = std::abs(target_unwrapped_[j] - setpoint_[static_cast<std::size_t>(j)].position) <= kReachedTolerance;
+      }
+      if (reached) {
+        ++target_;
+        if (target_ < path_size_) {
+          target_unwrapped_ += model_->difference(active_->path()[target_ - 1], active_->path()[target_]);
+        }
+      }
+    } else {
+      ++stats_.trajectory_errors;
+    }
+  }
+  for (int j = 0; j < n_; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    const double error = setpoint_[k].position - q_unwrapped_[j];
+    const double v_max = model_->joints()[k].max_velocity;
+    v_target_[k] = std::clamp(speed_scale * (setpoint_[k].velocity + config_.position_gain_per_s * error), -v_max, v_max);
+  }
+}
+
+ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_us, const ControllerCommands& commands,
+                                  bool watchdog_tripped) noexcept {
+  now_us_ = s.t_us;
+  ++stats_.cycles;
+  const double dt_s = static_cast<double>(std::max<std::int64_t>(dt_us, 1)) * 1e-6;
+
+  estimate(s, dt_s);
+  track_obstacles(s);
+  if (have_reading_) run_safety();
+
+  guidance::SupervisorInputs in;
+  in.now_us = now_us_;
+  in.sensing = sensing_inputs(s);
+  if (have_reading_) {
+    in.safety.stop_check = check_.status;
+    in.safety.warning_speed_scale = check_.speed_scale;
+    if (rcl_) in.safety.rcl_stage = rcl_result_.stage;
+  }
+  in.commands.stop = commands.stop;
+  in.commands.goal_request = commands.goal_request;
+  in.commands.acknowledge = commands.acknowledge;
+  in.planner.status = planner_status_;
+  in.progress.at_rest = at_rest_;
+  in.progress.command_at_rest = limiter_.at_rest();
+  in.progress.path_complete = path_complete();
+  in.watchdog_tripped = watchdog_tripped;
+  if (commands.goal_request && supervisor_.state() == guidance::SupervisorState::Hold) {
+    if (commands.goal_joints == n_) {
+      for (int j = 0; j < n_; ++j) goal_[j] = commands.goal[static_cast<std::size_t>(j)];
+    } else {
+      goal_ = scenario_.goal;
+    }
+  }
+
+  const guidance::SupervisorOutput out = supervisor_.update(in);
+  if (out.goal_outcome != guidance::CommandOutcome::None && out.goal_outcome != guidance::CommandOutcome::Accepted) {
+    ++stats_.commands_rejected;
+    rejected_until_us_ = now_us_ + 2'000'000;
+  }
+  if (out.acknowledge_outcome != guidance::CommandOutcome::None && out.acknowledge_outcome != guidance::CommandOutcome::Accepted) {
+    ++stats_.commands_rejected;
+    rejected_until_us_ = now_us_ + 2'000'000;
+  }
+  if (out.transitioned) {
+    using R = guidance::TransitionReason;
+    if (out.state == guidance::SupervisorState::Stopping &&
+        (out.reason == R::SafetyStopZone || out.reason == R::SafetyCheckError || out.reason == R::EnvelopeViolated ||
+         out.reason == R::RatedCapacityCut)) {
+      ++stats_.safety_stops;
+    }
+    if (out.reason == R::GoalReached) {
+      ++stats_.goals_reached;
+      following_ = false;
+    }
+    if (out.state == guidance::SupervisorState::Executing) load_path();
+  }
+  if (out.motion_permitted && joints_valid_ && check_.min_clearance_m < stats_.min_clearance_m) {
+    stats_.min_clearance_m = check_.min_clearance_m;
+  }
+
+  handle_plan_request(out);
+
+  if (out.motion_permitted && joints_valid_) {
+    follow(dt_s, out.speed_scale);
+    for (int j = 0; j < n_; ++j) v_command_[j] = v_target_[static_cast<std::size_t>(j)];
+    if (rcl_) {
+      const guidance::RatedCapacityResult cut = rcl_->limit_velocity(q_wrapped_, rcl_->task_load_lb(), v_command_);
+      bool any_cut = false;
+      for (int j = 0; j < n_; ++j) {
+        if (cut.cut[static_cast<std::size_t>(j)]) {
+          v_target_[static_cast<std::size_t>(j)] = 0.0;
+          any_cut = true;
+        }
+      }
+      if (any_cut) ++stats_.rcl_cut_cycles;
+    }
+    (void)limiter_.update(std::span<const double>(v_target_.data(), static_cast<std::size_t>(n_)), dt_s);
+  } else if (out.controlled_stop || out.motion_permitted) {
+    (void)limiter_.stop(dt_s);
+  } else {
+    for (int j = 0; j < n_; ++j) v_target_[static_cast<std::size_t>(j)] = 0.0;
+    (void)limiter_.update(std::span<const double>(v_target_.data(), static_cast<std::size_t>(n_)), dt_s);
+  }
+
+  fill_snapshot(s, out);
+  previous_state_ = out.state;
+
+  ControllerOutput result;
+  result.velocity = limiter_.velocity();
+  result.start_nodes = out.start_nodes;
+  result.reset_watchdog = out.reset_latches;
+  result.supervisor = out;
+  return result;
+}
+
+void Controller::raise(std::size_t kind, bool active, std::int8_t severity, std::int8_t source, std::int8_t clear,
+                       std::int8_t unit, double value, double limit, std::int32_t index) noexcept {
+  if (!active) {
+    alert_active_[kind] = false;
+    return;
+  }
+  SnapshotAlert& a = alerts_[kind];
+  // A new id when the condition is raised anew or its severity changes.
+  if (!alert_active_[kind] || a.severity != severity) a.alert_id = next_alert_id_++;
+  alert_active_[kind] = true;
+  a.severity = severity;
+  a.source = source;
+  a.clear_condition = clear;
+  a.value_unit = unit;
+  a.value = value;
+  a.limit = limit;
+  a.index = index;
+  a.min_clearance_m = check_.min_clearance_m;
+}
+
+void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::SupervisorOutput& out) noexcept {
+  using guidance::SupervisorState;
+  snap_.utime_us = now_us_;
+  snap_.cycle_index = s.cycle;
+  std::int64_t oldest = now_us_;
+  for (int j = 0; j < n_; ++j) oldest = std::min(oldest, s.joints[static_cast<std::size_t>(j)].t_us);
+  snap_.utime_sample_us = oldest;
+  for (int j = 0; j < n_; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    snap_.joint_position[k] = q_wrapped_[j];
+    snap_.joint_velocity[k] = velocity_[k];
+    snap_.joint_acceleration[k] = acceleration_[k];
+    std::int8_t flags = 0;
+    if (s.joints[k].health == hal::Health::Stale) flags |= mgc::machine_state_t::JOINT_ENCODER_STALE;
+    if (!s.joints[k].valid) flags |= mgc::machine_state_t::JOINT_ENCODER_INVALID;
+    if (rcl_ && rcl_result_.cut[k]) flags |= mgc::machine_state_t::JOINT_MOTION_CUT_OFF;
+    snap_.joint_fault_flags[k] = flags;
+  }
+  if (have_reading_) {
+    model_->forward_kinematics(q_wrapped_, kinematics_);
+    const int tool = static_cast<int>(model_->key_point_names().size()) - 1;
+    const Eigen::Vector3d& p = kinematics_.points[static_cast<std::size_t>(std::max(tool, 0))];
+    snap_.tool_position_m = {p.x(), p.y(), p.z()};
+  }
+  snap_.supervisor_state = state_code(out.state);
+  snap_.load_moment_pct = rcl_ ? 100.0 * rcl_result_.utilisation : kNaN;
+
+  // The plan: up to kSnapshotMaxWaypoints, evenly picked, the last always kept.
+  SnapshotPlan& plan = snap_.plan;
+  if (following_ && plan.plan_id != plan_id_) {
+    plan.plan_id = plan_id_;
+    plan.status = mgc::plan_t::STATUS_EXACT;
+    plan.num_joints = n_;
+    const std::size_t count = std::min<std::size_t>(path_size_, kSnapshotMaxWaypoints);
+    plan.num_waypoints = static_cast<int>(count);
+    planning::JointVector w = origin_;
+    std::size_t picked = 0;
+    for (std::size_t i = 0; i < path_size_ && picked < count; ++i) {
+      if (i > 0) w += model_->difference(active_->path()[i - 1], active_->path()[i]);
+      const std::size_t want = count > 1 ? (picked * (path_size_ - 1)) / (count - 1) : 0;
+      if (i != want) continue;
+      for (int j = 0; j < n_; ++j) plan.positions[picked][static_cast<std::size_t>(j)] = w[j];
+      plan.moving_joint[picked] = mgc::plan_t::NO_JOINT;
+      ++picked;
+    }
+  }
+
+  // The instruction and the words.
+  snap_.speed_scale = out.speed_scale;
+  snap_.segment_index = following_ ? static_cast<std::int32_t>(target_) - 1 : -1;
+  snap_.moving_joint = static_cast<std::int8_t>(following_ ? moving_joint_ : -1);
+  snap_.target_position = following_ && moving_joint_ >= 0 ? target_unwrapped_[moving_joint_] : kNaN;
+  snap_.joint_distance_remaining = following_ && moving_joint_ >= 0
+                                       ? std::abs(target_unwrapped_[moving_joint_] - q_unwrapped_[moving_joint_])
+                                       : kNaN;
+  switch (out.state) {
+    case SupervisorState::Executing:
+      snap_.instruction = path_complete() ? mgc::operator_guidance_t::INSTRUCTION_DONE : mgc::operator_guidance_t::INSTRUCTION_MOVE_JOINT;
+      break;
+    case SupervisorState::Planning:
+    case SupervisorState::Replanning:
+      snap_.instruction = mgc::operator_guidance_t::INSTRUCTION_WAIT_REPLAN;
+      break;
+    case SupervisorState::Stopping:
+    case SupervisorState::Fault:
+    case SupervisorState::Estop:
+      snap_.instruction = mgc::operator_guidance_t::INSTRUCTION_STOPPED;
+      break;
+    default:
+      snap_.instruction = mgc::operator_guidance_t::INSTRUCTION_HOLD;
+  }
+  snap_.instruction_text[0] = '\0';
+  if (following_ && target_ < path_size_ && out.state == SupervisorState::Executing) {
+    // The next two moves: from here to the current target, then the one after.
+    std::array<std::array<double, kMaxJoints>, 3> w{};
+    planning::JointVector next = target_unwrapped_;
+    for (int j = 0; j < n_; ++j) {
+      w[0][static_cast<std::size_t>(j)] = q_unwrapped_[j];
+      w[1][static_cast<std::size_t>(j)] = target_unwrapped_[j];
+    }
+    std::size_t count = 2;
+    if (target_ + 1 < path_size_) {
+      next += model_->difference(active_->path()[target_], active_->path()[target_ + 1]);
+      for (int j = 0; j < n_; ++j) w[2][static_cast<std::size_t>(j)] = next[j];
+      count = 3;
+    }
+    (void)next_moves_in_words(model_->kind(), n_, std::span<const double>(snap_.joint_position.data(), static_cast<std::size_t>(n_)),
+                              std::span<const std::array<double, kMaxJoints>>(w.data(), count), 0, 2,
+                              std::span<char>(snap_.instruction_text.data(), snap_.instruction_text.size()));
+  }
+
+  // Clearances.
+  snap_.obstacle_clearance_m = have_reading_ ? check_.min_clearance_m : kNaN;
+  snap_.obstacle_index = check_.nearest.other;
+  double margin = 1e300;
+  int limit_joint = -1;
+  for (int j = 0; j < n_; ++j) {
+    const planning::JointSpec& spec = model_->joints()[static_cast<std::size_t>(j)];
+    if (spec.continuous) continue;
+    const double m = std::min(q_wrapped_[j] - spec.position_min, spec.position_max - q_wrapped_[j]);
+    if (m < margin) {
+      margin = m;
+      limit_joint = j;
+    }
+  }
+  snap_.limit_margin = limit_joint >= 0 ? margin : kNaN;
+  snap_.limit_joint = static_cast<std::int8_t>(limit_joint);
+
+  // Alerts.
+  using A = mgc::alert_t;
+  const bool moving_state = out.state == SupervisorState::Executing || out.state == SupervisorState::Stopping;
+  const bool warn = have_reading_ && moving_state && check_.status == guidance::StopCheckStatus::Warning;
+  const bool stop = have_reading_ && moving_state &&
+                    (check_.status == guidance::StopCheckStatus::Stop || check_.status == guidance::StopCheckStatus::ErrorInput);
+  raise(kAlertCollision, warn || stop, stop ? A::SEVERITY_STOP : A::SEVERITY_SLOW_DOWN, A::SOURCE_COLLISION,
+        A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_METRE, check_.min_clearance_m,
+        stop ? config_.stop_check.stop_margin_m : config_.stop_check.warning_margin_m, check_.nearest.other);
+  const bool rcl_alert = rcl_ && rcl_result_.stage != guidance::RclStage::Normal;
+  raise(kAlertLoadChart, rcl_alert, rcl_result_.stage == guidance::RclStage::Warning ? A::SEVERITY_WARN : A::SEVERITY_STOP,
+        A::SOURCE_LOAD_CHART, A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_PERCENT, 100.0 * rcl_result_.utilisation,
+        rcl_result_.stage == guidance::RclStage::Warning ? 100.0 * config_.rated_capacity.warning_utilisation
+                                                         : 100.0 * config_.rated_capacity.cutoff_utilisation,
+        -1);
+  const bool fault = out.state == SupervisorState::Fault;
+  raise(kAlertFault, fault, A::SEVERITY_FAULT, fault_source(supervisor_.reason()), A::CLEAR_ON_OPERATOR_ACK, A::UNIT_NONE,
+        static_cast<double>(static_cast<int>(supervisor_.reason())), kNaN, -1);
+  raise(kAlertEstop, out.state == SupervisorState::Estop, A::SEVERITY_STOP, A::SOURCE_OPERATOR, A::CLEAR_ON_OPERATOR_ACK,
+        A::UNIT_NONE, kNaN, kNaN, -1);
+  const bool planner_alert = out.state == SupervisorState::Replanning || supervisor_.retry_pending();
+  raise(kAlertPlanner, planner_alert, A::SEVERITY_INFO, A::SOURCE_PLANNER, A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_NONE,
+        kNaN, kNaN, -1);
+  raise(kAlertOperator, now_us_ < rejected_until_us_, A::SEVERITY_INFO, A::SOURCE_OPERATOR, A::CLEAR_WHEN_CONDITION_CLEARS,
+        A::UNIT_NONE, kNaN, kNaN, -1);
+  bool tracks_lost = false;
+  for (const ObstacleTracker& t : trackers_) tracks_lost = tracks_lost || !t.valid(now_us_);
+  raise(kAlertTracking, tracks_lost && supervisor_.state() != SupervisorState::Init, A::SEVERITY_WARN, A::SOURCE_SENSING,
+        A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_NONE, kNaN, kNaN, -1);
+  snap_.num_alerts = 0;
+  for (std::size_t k = 0; k < kAlertKinds && snap_.num_alerts < kSnapshotMaxAlerts; ++k) {
+    if (alert_active_[k]) snap_.alerts[static_cast<std::size_t>(snap_.num_alerts++)] = alerts_[k];
+  }
+}
+
+}  // namespace mgc::firmware

@@ -1,0 +1,152 @@
+// SPDX-License-Identifier: Apache-2.0
+// The controller's cycle end to end against the simulated crane on an in-process bus: the lift with
+// the second crane swinging into it, and the faults the simulator can inject.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "../sim/sim_rig.hpp"
+#include <mgc/alert_t.hpp>
+
+#include "mgc/firmware/controller.hpp"
+
+using namespace mgc;
+using test::SimRig;
+
+namespace {
+
+//! A controller on the rig: requests the scenario's goal once in HOLD, writes its commands, and
+//! measures the true clearance of the true crane to the true site every 50 ms.
+struct Run {
+  SimRig rig;
+  firmware::Controller controller;
+  firmware::ControllerOutput out{};
+  std::unique_ptr<planning::MachineModel> truth_model;
+  std::unique_ptr<planning::CollisionWorld> truth_world;
+  double min_true_clearance_m = std::numeric_limits<double>::infinity();
+  bool goal_sent = false;
+  bool request_goal = true;
+  std::vector<std::string> transitions;
+  std::int64_t done_us = -1;
+
+  Run(const char* scenario, sim::SimConfig config, const std::string& bus)
+      : rig(scenario, std::move(config), bus), controller(rig.scenario, firmware::ControllerConfig{}) {
+    planning::Scenario bare = rig.scenario;
+    bare.planner.dilation_m = 0.0;
+    truth_model = planning::build_model(bare);
+    truth_world = planning::build_world(bare, *truth_model);
+    rig.on_cycle = [this](const hal::SensorSnapshot& s) { cycle(s); };
+  }
+
+  void cycle(const hal::SensorSnapshot& s) {
+    firmware::ControllerCommands commands;
+    if (request_goal && !goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
+      commands.goal_request = true;
+      goal_sent = true;
+    }
+    out = controller.step(s, SimRig::kCycleUs, commands, false);
+    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
+    if (out.supervisor.transitioned) {
+      transitions.push_back(std::to_string(static_cast<double>(s.t_us - SimRig::kSimZeroUs) * 1e-6) + " s " +
+                            guidance::to_string(out.supervisor.state) + " (" + guidance::to_string(out.supervisor.reason) + ")" +
+                            (out.supervisor.state == guidance::SupervisorState::Stopping
+                                 ? " nearest " + std::to_string(static_cast<int>(controller.stop_check().nearest.with)) + "/" +
+                                       std::to_string(controller.stop_check().nearest.other) + " at " +
+                                       std::to_string(controller.stop_check().min_clearance_m) + " m, obstacle speed " +
+                                       std::to_string(controller.obstacle_speed_m_s())
+                                 : std::string()));
+    }
+    if (out.supervisor.reason == guidance::TransitionReason::GoalReached && done_us < 0) done_us = s.t_us;
+    if (s.cycle % 5 == 0) {
+      const auto& truth = rig.sim->truth();
+      planning::JointVector q(controller.num_joints());
+      for (int j = 0; j < controller.num_joints(); ++j) q[j] = truth.position[static_cast<std::size_t>(j)];
+      for (std::size_t d = 0; d < rig.scenario.dynamic_obstacles.size(); ++d) {
+        truth_world->set_dynamic_pose(static_cast<int>(d), rig.sim->obstacle_pose(d));
+      }
+      min_true_clearance_m = std::min(min_true_clearance_m, truth_world->clearance(q).distance_m);
+    }
+  }
+
+  std::string log() const {
+    std::string text;
+    for (const auto& t : transitions) text += t + "\n";
+    return text;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("the controller completes the thesis lift with the second crane swinging into it", "[firmware][sim][e2e]") {
+  // The scenario's crane 2 swings 60-84 s into its script; 10 s ahead, it swings into the west
+  // route while our crane slews through it.
+  sim::SimConfig config = SimRig::quiet_config();
+  config.scenario_time_offset_s = 10.0;
+  Run run("thesis-steel-frame.yaml", config, "ctl-e2e");
+  run.rig.run(SimRig::at_sim_s(200.0) - run.rig.t_us);
+  const firmware::ControllerStats& st = run.controller.stats();
+  INFO(run.log());
+  CAPTURE(st.plans, st.replans, st.escapes, st.safety_stops, st.min_clearance_m, run.min_true_clearance_m);
+  CHECK(st.plans == 1);
+  CHECK(st.safety_stops >= 1);
+  CHECK(st.replans >= 1);
+  CHECK(st.goals_reached == 1);
+  CHECK(st.trajectory_errors == 0);
+  // Never closer to the true site and the true crane 2 than the stop margin.
+  CHECK(run.min_true_clearance_m > firmware::ControllerConfig{}.stop_check.stop_margin_m);
+  // The true crane stands at the goal.
+  const planning::JointVector& goal = run.rig.scenario.goal;
+  for (int j = 0; j < run.controller.num_joints(); ++j) {
+    CAPTURE(j);
+    const planning::JointSpec& spec = run.controller.model().joints()[static_cast<std::size_t>(j)];
+    double error = run.rig.sim->truth().position[static_cast<std::size_t>(j)] - goal[j];
+    if (spec.continuous) error = std::remainder(error, 2.0 * std::numbers::pi);
+    CHECK(std::abs(error) < (spec.type == planning::JointType::Revolute ? 0.5 * std::numbers::pi / 180.0 : 0.05));
+  }
+}
+
+TEST_CASE("the controller ends each sensing fault of the simulator in a controlled stop and FAULT", "[firmware][sim][e2e]") {
+  struct Case {
+    const char* fault;
+    guidance::TransitionReason reason;
+  };
+  const Case cases[] = {
+      {"heartbeat-lost:swing@20", guidance::TransitionReason::EncoderMissing},
+      {"encoder-dropout:boom_elevation@20", guidance::TransitionReason::EncoderStale},
+      {"heartbeat-lost:uwb@20", guidance::TransitionReason::UwbGatewayLost},
+      {"uwb-silent@20", guidance::TransitionReason::UwbSilent},
+      {"bus-off@20", guidance::TransitionReason::BusOff},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.fault);
+    sim::SimConfig config = SimRig::quiet_config();
+    std::vector<std::string> names;
+    for (const auto& j : planning::io::load_scenario(test::scenario_path("thesis-steel-frame.yaml")).machine.joints) {
+      names.push_back(j.name);
+    }
+    config.faults.push_back(sim::parse_fault(c.fault, names));
+    Run run("thesis-steel-frame.yaml", config, "ctl-fault");
+    run.rig.run(SimRig::at_sim_s(20.0) - run.rig.t_us);
+    REQUIRE(run.controller.supervisor().state() == guidance::SupervisorState::Executing);
+    run.rig.run(10'000'000);
+    INFO(run.log());
+    CHECK(run.controller.supervisor().state() == guidance::SupervisorState::Fault);
+    CHECK(run.controller.supervisor().reason() == c.reason);
+    // The fault is an alert for the operator, cleared only by an acknowledgement.
+    const firmware::GuidanceSnapshot& g = run.controller.snapshot();
+    bool fault_alert = false;
+    for (int i = 0; i < g.num_alerts; ++i) fault_alert = fault_alert || g.alerts[static_cast<std::size_t>(i)].severity == mgc::alert_t::SEVERITY_FAULT;
+    CHECK(fault_alert);
+    for (int j = 0; j < run.controller.num_joints(); ++j) {
+      CAPTURE(j);
+      CHECK(std::abs(run.rig.sim->truth().velocity[static_cast<std::size_t>(j)]) < 1e-6);
+      CHECK(run.out.velocity[static_cast<std::size_t>(j)] == 0.0);
+    }
+  }
+}
