@@ -1,0 +1,44 @@
+// SPDX-License-Identifier: Apache-2.0
+// The controller's cycle allocates nothing after construction: a whole lift through planning,
+// execution, a safety stop, waiting for the intruder, the re-plan and the goal, FCL queries and
+// the guidance snapshot included.
+#include <catch2/catch.hpp>
+
+#include "../sim/sim_rig.hpp"
+#include "allocation_counter.hpp"
+#include "mgc/firmware/controller.hpp"
+
+using namespace mgc;
+using test::SimRig;
+
+TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re-plan and the goal", "[firmware][sim][alloc]") {
+  sim::SimConfig config = SimRig::quiet_config();
+  config.scenario_time_offset_s = 10.0;  // crane 2 swings into the lift (controller_test.cpp)
+  SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc");
+  firmware::Controller controller(rig.scenario, firmware::ControllerConfig{});
+  bool goal_sent = false;
+  long cycles = 0;
+  long allocations_in_steps = 0;
+  rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+    firmware::ControllerCommands commands;
+    if (!goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
+      commands.goal_request = true;
+      goal_sent = true;
+    }
+    const long before = test::allocation_count();
+    const firmware::ControllerOutput out = controller.step(s, SimRig::kCycleUs, commands, false);
+    allocations_in_steps += test::allocation_count() - before;
+    ++cycles;
+    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
+  };
+  rig.run(SimRig::at_sim_s(130.0) - rig.t_us);
+  const firmware::ControllerStats& st = controller.stats();
+  CAPTURE(cycles, st.plans, st.replans, st.safety_stops, st.goals_reached);
+  REQUIRE(st.plans == 1);
+  REQUIRE(st.safety_stops >= 1);
+  REQUIRE(st.replans >= 1);
+  REQUIRE(st.goals_reached == 1);
+  CHECK(cycles > 10'000);
+  CHECK(allocations_in_steps == 0);
+}
