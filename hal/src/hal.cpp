@@ -77,7 +77,13 @@ const SensorSnapshot& Hal::read(std::int64_t now_us) noexcept {
   }
   snap_.bus_state = bus_.state();
   snap_.bus = bus_.counters();
-  update_health(now_us);
+  // The data answering the previous read's SYNC is as fresh as the bus can make it, however late
+  // this read is.
+  const std::int64_t data_age_ref_us =
+      have_previous_read_ && sync_enabled_ ? std::min(now_us, previous_read_us_ + plan_.timing.sync_period_us) : now_us;
+  previous_read_us_ = now_us;
+  have_previous_read_ = true;
+  update_health(now_us, data_age_ref_us);
   return snap_;
 }
 
@@ -200,7 +206,7 @@ void Hal::handle_tag(const pdo::UwbTagPosition& fix, std::int64_t t_us) noexcept
   ++tag.fixes;
 }
 
-void Hal::update_health(std::int64_t now_us) noexcept {
+void Hal::update_health(std::int64_t now_us, std::int64_t data_age_ref_us) noexcept {
   const BusTiming& timing = plan_.timing;
   const auto node_health = [&](DeviceStatus& dev) {
     if (!dev.heard || now_us - dev.last_heartbeat_us > timing.device_heartbeat_timeout_us) {
@@ -221,7 +227,7 @@ void Hal::update_health(std::int64_t now_us) noexcept {
       joint.health = dev.health;
     } else if ((joint.status & pdo::kEncoderStatusAlarm) != 0) {
       joint.health = Health::Faulted;
-    } else if (joint.samples == 0 || now_us - joint.t_us > timing.encoder_stale_after_us) {
+    } else if (joint.samples == 0 || data_age_ref_us - joint.t_us > timing.encoder_stale_after_us) {
       joint.health = Health::Stale;
     } else {
       joint.health = Health::Alive;
@@ -238,7 +244,7 @@ void Hal::update_health(std::int64_t now_us) noexcept {
 
   node_health(snap_.valve);
   snap_.valve_status_valid =
-      valve_status_t_us_ != 0 && now_us - valve_status_t_us_ <= timing.encoder_stale_after_us;
+      valve_status_t_us_ != 0 && data_age_ref_us - valve_status_t_us_ <= timing.encoder_stale_after_us;
   if (snap_.valve.health == Health::Alive && snap_.valve_status_valid &&
       (snap_.valve_status.state == pdo::ValveState::FailSafe || snap_.valve_status.state == pdo::ValveState::Fault ||
        snap_.valve_status.joint_fault_mask != 0)) {

@@ -66,6 +66,26 @@ struct Bench {
 
 }  // namespace
 
+TEST_CASE("Hal: a late read does not make the answer to the previous SYNC stale", "[hal][facade]") {
+  Bench b;
+  b.beat();
+  (void)b.read_at(1'000'000);
+  b.encoders(45'000);  // the answer to that SYNC
+  REQUIRE(b.read_at(1'010'000).all_joints_valid());
+  // The next read comes 45 ms late (a stalled loop): its own SYNC was late too, so the answer to
+  // the previous SYNC is the freshest there can be.
+  b.beat();
+  b.encoders(45'010);
+  const SensorSnapshot& late = b.read_at(1'065'000);
+  CHECK(late.all_joints_valid());
+  // But no answer at all to that SYNC: stale by the next on-time read.
+  (void)b.read_at(1'075'000);
+  (void)b.read_at(1'085'000);
+  (void)b.read_at(1'095'000);
+  const SensorSnapshot& silent = b.read_at(1'105'000);
+  CHECK(silent.joints[0].health == Health::Stale);
+}
+
 TEST_CASE("Hal: a joint is valid only with a fresh heartbeat and a fresh sample", "[hal][facade]") {
   Bench b;
   const SensorSnapshot& s0 = b.read_at(1'000'000);

@@ -133,7 +133,9 @@ class Hal {
 
   //! Sends SYNC, then drains the receive queue (at most kMaxFramesPerRead frames) and updates the
   //! snapshot. The samples it holds answer earlier SYNCs; the ones this SYNC triggers arrive for
-  //! the next read(). Health is recomputed at now_us.
+  //! the next read(). Health is recomputed at now_us; the age of SYNC-triggered data (encoder
+  //! samples, the valve status) is measured at most one SYNC period after the previous read(), so
+  //! that a late cycle, which delayed the SYNC itself, does not make the devices' answers stale.
   const SensorSnapshot& read(std::int64_t now_us) noexcept;
 
   //! Sends the valve command frames for every joint (velocities in SI, clamped to the max
@@ -160,7 +162,8 @@ class Hal {
   void handle_emcy(const canopen::EmcyMessage& emcy) noexcept;
   void handle_tag(const pdo::UwbTagPosition& fix, std::int64_t t_us) noexcept;
   [[nodiscard]] DeviceStatus* device(std::uint8_t node_id) noexcept;
-  void update_health(std::int64_t now_us) noexcept;
+  //! data_age_ref_us: the time the PDO data's age is measured at (see read()).
+  void update_health(std::int64_t now_us, std::int64_t data_age_ref_us) noexcept;
 
   CanBus& bus_;
   BusPlan plan_;
@@ -171,6 +174,8 @@ class Hal {
   std::int64_t valve_status_t_us_ = 0;
   std::uint8_t sync_counter_ = 0;
   bool sync_enabled_ = true;
+  std::int64_t previous_read_us_ = 0;
+  bool have_previous_read_ = false;
   std::int64_t next_heartbeat_us_ = 0;
   bool heartbeat_sent_ = false;
 };
