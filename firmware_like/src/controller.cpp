@@ -21,6 +21,9 @@ namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 //! A setpoint this close to its waypoint has reached it (the generator ends exactly on target). [rad | m]
 constexpr double kReachedTolerance = 1e-6;
+//! A joint cannot move faster than this multiple of its rated speed: an estimate beyond it is a
+//! timing artefact, not motion. [-]
+constexpr double kPlausibleSpeedFactor = 1.5;
 
 //! Longest time-optimal stop of any joint from its full speed. [s]
 double longest_stop_s(const planning::MachineModel& model) {
@@ -179,8 +182,12 @@ void Controller::estimate(const hal::SensorSnapshot& s, double dt_s) noexcept {
     q_raw_[j] = r.position;
     q_unwrapped_[j] += delta;
     if (r.t_us > sample_us_[k]) {
-      const double sample_dt_s = static_cast<double>(r.t_us - sample_us_[k]) * 1e-6;
-      const double v = delta / sample_dt_s;
+      // Receive times jitter with the bus and the scheduler: two samples read close together
+      // after a late cycle were still taken a SYNC period apart, so never divide by less than half
+      // of this cycle's period.
+      const double sample_dt_s = std::max(static_cast<double>(r.t_us - sample_us_[k]) * 1e-6, 0.5 * dt_s);
+      const double v_limit = kPlausibleSpeedFactor * model_->joints()[k].max_velocity;
+      const double v = std::clamp(delta / sample_dt_s, -v_limit, v_limit);
       const double v_new = velocity_[k] + config_.velocity_filter * (v - velocity_[k]);
       acceleration_[k] += config_.velocity_filter * ((v_new - velocity_[k]) / std::max(sample_dt_s, dt_s) - acceleration_[k]);
       velocity_[k] = v_new;
@@ -216,13 +223,24 @@ void Controller::track_obstacles(const hal::SensorSnapshot& s) noexcept {
         h.head = (h.head + 1) % PoseHistory::kSamples;
         h.count = std::min(h.count + 1, PoseHistory::kSamples);
         if (h.count == PoseHistory::kSamples) {
-          // Oldest against newest: over a whole window the tags' noise averages down.
-          const std::size_t oldest = h.head;
-          const std::size_t latest = (h.head + PoseHistory::kSamples - 1) % PoseHistory::kSamples;
-          const double span_s = static_cast<double>(h.t_us[latest] - h.t_us[oldest]) * 1e-6;
-          const double yaw_rate = std::abs(std::remainder(h.yaw_rad[latest] - h.yaw_rad[oldest], kTwoPi)) / span_s;
-          h.speed_m_s = (h.position_m[latest] - h.position_m[oldest]).norm() / span_s + yaw_rate * h.radius_m +
-                        config_.obstacle_speed_floor_m_s;
+          // Least-squares slopes over the whole window: the tags' noise averages down with every
+          // sample, where a difference of two poses would keep it whole.
+          double t_mean_s = 0.0;
+          for (std::size_t i = 0; i < PoseHistory::kSamples; ++i) t_mean_s += static_cast<double>(h.t_us[i] - h.t_us[h.head]) * 1e-6;
+          t_mean_s /= static_cast<double>(PoseHistory::kSamples);
+          double stt = 0.0;
+          double yaw_rate = 0.0;
+          Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+          const double yaw0 = h.yaw_rad[h.head];
+          for (std::size_t i = 0; i < PoseHistory::kSamples; ++i) {
+            const double dt_s = static_cast<double>(h.t_us[i] - h.t_us[h.head]) * 1e-6 - t_mean_s;
+            stt += dt_s * dt_s;
+            velocity += dt_s * h.position_m[i];
+            yaw_rate += dt_s * std::remainder(h.yaw_rad[i] - yaw0, kTwoPi);
+          }
+          velocity /= stt;
+          yaw_rate /= stt;
+          h.speed_m_s = velocity.norm() + std::abs(yaw_rate) * h.radius_m + config_.obstacle_speed_floor_m_s;
           h.window_full = true;
         }
       }

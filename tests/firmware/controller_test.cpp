@@ -111,6 +111,23 @@ TEST_CASE("the controller completes the thesis lift with the second crane swingi
   }
 }
 
+TEST_CASE("the controller completes the lift with UWB noise and dropouts and encoder noise", "[firmware][sim][e2e]") {
+  // The simulator's defaults: 0.15 m UWB noise per axis, 2 % of fixes lost, half a count of
+  // encoder noise. The obstacle's speed comes from its noisy track, so a parked crane must not
+  // look like a moving one.
+  sim::SimConfig config;
+  config.scenario_time_offset_s = 10.0;
+  Run run("thesis-steel-frame.yaml", config, "ctl-noisy");
+  run.rig.run(SimRig::at_sim_s(200.0) - run.rig.t_us);
+  const firmware::ControllerStats& st = run.controller.stats();
+  INFO(run.log());
+  CAPTURE(st.replans, st.escapes, st.safety_stops, run.min_true_clearance_m);
+  CHECK(st.goals_reached == 1);
+  CHECK(st.replans >= 1);
+  CHECK(st.safety_stops <= 3);
+  CHECK(run.min_true_clearance_m > firmware::ControllerConfig{}.stop_check.stop_margin_m);
+}
+
 TEST_CASE("the controller ends each sensing fault of the simulator in a controlled stop and FAULT", "[firmware][sim][e2e]") {
   struct Case {
     const char* fault;

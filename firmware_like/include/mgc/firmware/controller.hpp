@@ -53,7 +53,7 @@ struct ControllerConfig {
   //! only starting. The stop check's dynamic_obstacle_speed_m_s stands until a window is full. [m/s]
   double obstacle_speed_floor_m_s = 0.3;
   //! Span over which an obstacle's speed is measured from its tracked poses. [µs]
-  std::int64_t obstacle_speed_window_us = 1'000'000;
+  std::int64_t obstacle_speed_window_us = 2'000'000;
   //! A repair after a safety stop waits until no obstacle moves faster than its floor plus this:
   //! a path planned around an obstacle still on its way would be cut again at once. [m/s]
   double settled_speed_m_s = 0.2;
@@ -158,9 +158,9 @@ class Controller {
   bool replan_pending_ = false;            //!< a repair waits for the obstacles to settle
   planning::PlannerStatus planner_status_ = planning::PlannerStatus::NotReset;
   std::vector<ObstacleTracker> trackers_;
-  //! Tracked poses of one obstacle, one every tenth of the speed window, for its speed.
+  //! Tracked poses of one obstacle, evenly over the speed window, for its speed.
   struct PoseHistory {
-    static constexpr std::size_t kSamples = 11;
+    static constexpr std::size_t kSamples = 21;
     std::array<std::int64_t, kSamples> t_us{};
     std::array<Eigen::Vector3d, kSamples> position_m{};
     std::array<double, kSamples> yaw_rad{};

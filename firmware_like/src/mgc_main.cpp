@@ -1,0 +1,353 @@
+// SPDX-License-Identifier: Apache-2.0
+// mgc: the machine-guidance controller. Runs the control cycle (docs/controller.md) on a CAN bus
+// against the machine (or mgc-sim), publishes the operator feed over LCM and takes operator
+// commands from it.
+#include <CLI/CLI.hpp>
+#include <sodium.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cinttypes>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <mgc/operator_command_t.hpp>
+
+#include "mgc/firmware/command_auth.hpp"
+#include "mgc/firmware/controller.hpp"
+#include "mgc/firmware/cyclic_executive.hpp"
+#include "mgc/firmware/lcm_feed.hpp"
+#include "mgc/hal/can_bus.hpp"
+#include "mgc/hal/clock.hpp"
+#include "mgc/hal/hal.hpp"
+#include "mgc/planning/io/scenario_loader.hpp"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int /*signal*/) { g_stop.store(true); }
+
+//! One row of the trace, recorded in the loop into preallocated storage.
+struct TraceRow {
+  std::int64_t t_us = 0;
+  std::int8_t state = 0;
+  std::array<double, mgc::kMaxJoints> q{};
+  std::array<double, 3> tool_m{};
+  double clearance_m = 0.0;
+  std::array<std::array<double, 4>, 4> obstacle{};  //!< x, y, z [m], yaw [rad] of up to 4 tracked obstacles
+};
+
+//! The bus plan of the scenario's machine, its joints checked against the plan's encoders.
+mgc::hal::BusPlan bus_plan(const mgc::planning::Scenario& scenario) {
+  using mgc::planning::MachineKind;
+  mgc::hal::BusPlan plan;
+  switch (scenario.machine.kind) {
+    case MachineKind::MobileCrane: plan = mgc::hal::mobile_crane_bus_plan(); break;
+    case MachineKind::TowerCrane: plan = mgc::hal::tower_crane_bus_plan(); break;
+    case MachineKind::Excavator: plan = mgc::hal::excavator_bus_plan(); break;
+    default: throw std::invalid_argument(scenario.file + ": no bus plan for this machine kind");
+  }
+  for (std::size_t j = 0; j < plan.num_joints; ++j) {
+    if (j >= scenario.machine.joints.size() || scenario.machine.joints[j].name != plan.encoders[j].joint) {
+      throw std::invalid_argument(scenario.file + ": joint " + std::to_string(j) + " is not \"" + plan.encoders[j].joint +
+                                  "\" as the bus plan expects");
+    }
+  }
+  return plan;
+}
+
+const char* state_name(std::int8_t code) {
+  return mgc::guidance::to_string(static_cast<mgc::guidance::SupervisorState>(code - 1));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace mgc;
+  CLI::App app{"mgc: the machine-guidance controller (docs/controller.md)"};
+  std::string scenario_file;
+  std::string bus_url = "udp:127.0.0.1:47011,peer=127.0.0.1:47010";
+  double rate_hz = 100.0;
+  std::string lcm_url = firmware::kDefaultLcmUrl;
+  std::string key_file;
+  bool goal_on_start = false;
+  bool exit_when_done = false;
+  double duration_s = 0.0;
+  int fifo_priority = 0;
+  bool lock_memory = false;
+  std::string trace_csv;
+  std::string replanner = "drrt";
+  bool quiet = false;
+  int watchdog_misses = 10;
+  app.add_option("--scenario", scenario_file, "scenario file (YAML, docs/scenario-format.md)")->required();
+  app.add_option("--bus", bus_url, "CAN bus URL: udp:HOST:PORT,peer=HOST:PORT, socketcan:IFNAME, loop:NAME (docs/protocol.md)")
+      ->capture_default_str();
+  app.add_option("--rate-hz", rate_hz, "control rate [Hz]")->capture_default_str()->check(CLI::Range(10.0, 1000.0));
+  app.add_option("--lcm-url", lcm_url, "LCM provider for the operator feed")->capture_default_str();
+  app.add_option("--key", key_file,
+                 "shared command key (32 raw bytes); without it a random key is used and no goal or "
+                 "acknowledgement from LCM can be accepted");
+  app.add_flag("--goal-on-start", goal_on_start, "request the scenario's goal as soon as the machine is ready (HOLD)");
+  app.add_flag("--exit-when-done", exit_when_done, "exit once the goal is reached (0) or the lift ends in FAULT/ESTOP or is dropped (1)");
+  app.add_option("--duration", duration_s, "stop after this many seconds (default: until SIGINT/SIGTERM)")->check(CLI::NonNegativeNumber);
+  app.add_option("--fifo-priority", fifo_priority, "SCHED_FIFO priority 1..99 when permitted (0: off)")->check(CLI::Range(0, 99));
+  app.add_flag("--mlock", lock_memory, "lock the process's memory (mlockall) when permitted");
+  app.add_option("--trace-csv", trace_csv, "write the controller's view at 10 Hz here (CSV; mgc-plan --trace draws it)");
+  app.add_option("--replanner", replanner, "re-planner: drrt, drrt-rrt, drrt-con-con-mod")->capture_default_str();
+  app.add_flag("--quiet", quiet, "print only errors and the summary");
+  app.add_option("--watchdog-misses", watchdog_misses, "deadline misses in a row that trip the watchdog (a stop and FAULT)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::fprintf(stderr, "mgc: %s (see --help)\n", e.what());
+    return 2;
+  }
+
+  planning::Scenario scenario;
+  try {
+    scenario = planning::io::load_scenario(scenario_file);
+  } catch (const planning::io::InputError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 2;
+  }
+  if (scenario.dual_crane) {
+    std::fprintf(stderr, "mgc: %s: a dual-crane lift has no bus plan; mgc drives one machine\n", scenario_file.c_str());
+    return 2;
+  }
+
+  std::unique_ptr<firmware::CommandKey> key;
+  try {
+    if (!key_file.empty()) {
+      key = std::make_unique<firmware::CommandKey>(firmware::load_command_key(key_file));
+    } else {
+      if (sodium_init() < 0) throw std::runtime_error("libsodium: sodium_init failed");
+      std::array<std::uint8_t, firmware::kCommandKeyBytes> bytes{};
+      randombytes_buf(bytes.data(), bytes.size());
+      key = std::make_unique<firmware::CommandKey>(bytes);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mgc: --key: %s\n", e.what());
+    return 2;
+  }
+
+  const hal::SteadyClock& bus_clock = hal::SteadyClock::instance();
+  hal::OpenResult opened = hal::open_can_bus(bus_url, &bus_clock);
+  if (!opened) {
+    std::fprintf(stderr, "mgc: --bus: %s\n", opened.error.c_str());
+    return 2;
+  }
+  (void)opened.bus->set_error_mask(hal::kCanErrBusOff | hal::kCanErrRestarted);
+
+  try {
+    firmware::ControllerConfig config;
+    config.replanner = replanner;
+    firmware::Controller controller(scenario, config);
+    std::vector<double> vmax;
+    for (const auto& j : scenario.machine.joints) vmax.push_back(j.max_velocity);
+    hal::Hal hal(*opened.bus, bus_plan(scenario), vmax);
+
+    firmware::SnapshotQueue snapshots;
+    firmware::CommandQueue commands;
+    firmware::FeedConfig feed_config;
+    feed_config.lcm_url = lcm_url;
+    firmware::FeedPublisher feed(feed_config, *key, snapshots, commands);
+
+    const auto period_us = static_cast<std::int64_t>(1e6 / rate_hz);
+    firmware::MonotonicLoopClock loop_clock;
+    firmware::CyclicExecutive executive(loop_clock, {period_us, watchdog_misses});
+
+    std::vector<TraceRow> trace;
+    const double trace_s = duration_s > 0.0 ? duration_s : 3600.0;
+    if (!trace_csv.empty()) trace.reserve(static_cast<std::size_t>(trace_s * 10.0) + 16);
+    std::uint64_t trace_dropped = 0;
+    // The supervisor's transitions, drained every cycle and printed at the end (no I/O in the loop).
+    std::vector<guidance::TransitionRecord> transitions;
+    transitions.reserve(4096);
+    std::array<guidance::TransitionRecord, guidance::TransitionLog::kCapacity> drained{};
+    const std::int64_t trace_every = std::max<std::int64_t>(1, 100'000 / period_us);
+
+    const firmware::RealtimeReport rt = firmware::enable_realtime(fifo_priority, lock_memory);
+    if (!quiet) {
+      std::printf("mgc: %s on %s, bus %s, %.0f Hz, re-planner %s, LCM %s%s\n", scenario.machine.name.c_str(),
+                  scenario.name.c_str(), opened.bus->url().c_str(), rate_hz, replanner.c_str(), lcm_url.c_str(),
+                  key_file.empty() ? " (no key: LCM goals refused)" : "");
+      if (fifo_priority > 0 || lock_memory) {
+        std::printf("mgc: real-time: fifo %s, memory lock %s%s%s\n", rt.fifo ? "yes" : "no", rt.memory_locked ? "yes" : "no",
+                    rt.detail.empty() ? "" : ": ", rt.detail.c_str());
+      }
+      std::fflush(stdout);
+    }
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    feed.start();
+
+    bool goal_requested = false;
+    std::int64_t goal_request_us = -1;
+    std::int64_t done_us = -1;
+    std::uint64_t stops_seen = 0;
+    int exit_code = 0;
+    bool finished = false;
+    std::int64_t start_us = -1;
+    std::array<bool, 64> alert_seen{};
+    int alerts_raised = 0;
+
+    while (!g_stop.load() && !finished) {
+      const firmware::CycleTiming timing = executive.wait_next();
+      if (start_us < 0) start_us = timing.start_us;
+      const hal::SensorSnapshot& s = hal.read(timing.start_us);
+
+      firmware::ControllerCommands cmd;
+      firmware::AcceptedCommand accepted;
+      while (commands.try_pop(accepted)) {
+        if (accepted.kind == operator_command_t::KIND_STOP) cmd.stop = true;
+        if (accepted.kind == operator_command_t::KIND_ACKNOWLEDGE) cmd.acknowledge = true;
+        if (accepted.kind == operator_command_t::KIND_GOAL) {
+          cmd.goal_request = true;
+          cmd.goal_joints = accepted.num_joints;
+          cmd.goal = accepted.goal_position;
+        }
+      }
+      // A stop is obeyed even when the command queue was full.
+      const std::uint64_t stops = feed.stops_received();
+      if (stops != stops_seen) cmd.stop = true;
+      stops_seen = stops;
+      if (goal_on_start && !goal_requested && controller.supervisor().state() == guidance::SupervisorState::Hold) {
+        cmd.goal_request = true;
+        goal_requested = true;
+      }
+
+      const firmware::ControllerOutput out =
+          controller.step(s, timing.index == 0 ? period_us : timing.dt_us, cmd, executive.watchdog_tripped());
+      if (out.start_nodes) (void)hal.send_nmt(hal::canopen::NmtCommand::Start, 0);
+      if (out.reset_watchdog) executive.reset_watchdog();
+      (void)hal.write(out.velocity, timing.start_us);
+
+      if (out.supervisor.transitioned) {
+        using R = guidance::TransitionReason;
+        if (out.supervisor.reason == R::GoalRequested && goal_request_us < 0) goal_request_us = timing.start_us;
+        if (out.supervisor.reason == R::GoalReached) {
+          done_us = timing.start_us;
+          if (exit_when_done) finished = true;
+        }
+        const bool dropped = out.supervisor.reason == R::RetryLimitReached || out.supervisor.reason == R::ReplanFailed ||
+                             out.supervisor.reason == R::PlanFailed || out.supervisor.reason == R::PlanTimeout;
+        if (exit_when_done && (out.supervisor.state == guidance::SupervisorState::Fault ||
+                               out.supervisor.state == guidance::SupervisorState::Estop || dropped)) {
+          finished = true;
+          exit_code = 1;
+        }
+      }
+      const std::size_t n_drained = controller.supervisor().log().drain(drained);
+      for (std::size_t i = 0; i < n_drained && transitions.size() < transitions.capacity(); ++i) transitions.push_back(drained[i]);
+      firmware::GuidanceSnapshot& g = controller.snapshot();
+      for (int i = 0; i < g.num_alerts; ++i) {
+        const auto id = static_cast<std::size_t>(g.alerts[static_cast<std::size_t>(i)].alert_id);
+        if (id < alert_seen.size() && !alert_seen[id]) {
+          alert_seen[id] = true;
+          ++alerts_raised;
+        }
+      }
+      const firmware::ExecutiveStats& es = executive.stats();
+      g.timing.period_us = period_us;
+      g.timing.cycles = es.cycles;
+      g.timing.deadline_misses = es.deadline_misses;
+      g.timing.skipped_periods = es.skipped_periods;
+      g.timing.watchdog_trips = es.watchdog_trips;
+      g.timing.compute_p99_us = es.compute.percentile_us(0.99);
+      g.timing.compute_max_us = es.compute.max_us();
+      g.timing.lateness_p99_us = es.lateness.percentile_us(0.99);
+      g.timing.lateness_max_us = es.lateness.max_us();
+      g.timing.snapshots_dropped = snapshots.dropped();
+      (void)snapshots.try_push(g);
+
+      if (!trace_csv.empty() && static_cast<std::int64_t>(timing.index) % trace_every == 0) {
+        if (trace.size() < trace.capacity()) {
+          TraceRow row;
+          row.t_us = timing.start_us - start_us;
+          row.state = g.supervisor_state;
+          for (int j = 0; j < controller.num_joints(); ++j) row.q[static_cast<std::size_t>(j)] = g.joint_position[static_cast<std::size_t>(j)];
+          row.tool_m = g.tool_position_m;
+          row.clearance_m = g.obstacle_clearance_m;
+          for (std::size_t i = 0; i < std::min<std::size_t>(controller.num_trackers(), 4); ++i) {
+            const firmware::ObstacleTracker& t = controller.tracker(i);
+            row.obstacle[i] = {t.position_m().x(), t.position_m().y(), t.position_m().z(), t.yaw_rad()};
+          }
+          trace.push_back(row);
+        } else {
+          ++trace_dropped;
+        }
+      }
+      executive.end_cycle();
+      if (duration_s > 0.0 && static_cast<double>(timing.start_us - start_us) * 1e-6 >= duration_s) break;
+    }
+    // Leave the machine with the valves at neutral.
+    const std::vector<double> zero(static_cast<std::size_t>(controller.num_joints()), 0.0);
+    (void)hal.write(zero, bus_clock.now_us());
+    feed.run_once(0);
+    feed.stop();
+
+    if (!trace_csv.empty()) {
+      std::ofstream out(trace_csv);
+      if (!out) throw std::runtime_error("cannot write the trace " + trace_csv);
+      out << "t_s,state";
+      for (const auto& j : scenario.machine.joints) out << ',' << j.name;
+      out << ",tool_x_m,tool_y_m,tool_z_m,clearance_m";
+      for (std::size_t i = 0; i < std::min<std::size_t>(controller.num_trackers(), 4); ++i) {
+        out << ",obstacle" << i << "_x_m,obstacle" << i << "_y_m,obstacle" << i << "_z_m,obstacle" << i << "_yaw_rad";
+      }
+      out << '\n';
+      char buf[64];
+      for (const TraceRow& row : trace) {
+        std::snprintf(buf, sizeof buf, "%.3f,%s", static_cast<double>(row.t_us) * 1e-6, state_name(row.state));
+        out << buf;
+        for (int j = 0; j < controller.num_joints(); ++j) {
+          std::snprintf(buf, sizeof buf, ",%.6f", row.q[static_cast<std::size_t>(j)]);
+          out << buf;
+        }
+        std::snprintf(buf, sizeof buf, ",%.3f,%.3f,%.3f,%.3f", row.tool_m[0], row.tool_m[1], row.tool_m[2], row.clearance_m);
+        out << buf;
+        for (std::size_t i = 0; i < std::min<std::size_t>(controller.num_trackers(), 4); ++i) {
+          std::snprintf(buf, sizeof buf, ",%.3f,%.3f,%.3f,%.5f", row.obstacle[i][0], row.obstacle[i][1], row.obstacle[i][2],
+                        row.obstacle[i][3]);
+          out << buf;
+        }
+        out << '\n';
+      }
+    }
+
+    if (!quiet) {
+      for (const guidance::TransitionRecord& r : transitions) {
+        std::printf("mgc: %8.2f s  %-10s -> %-10s %s%s%s\n", static_cast<double>(r.t_us - start_us) * 1e-6, guidance::to_string(r.from),
+                    guidance::to_string(r.to), guidance::to_string(r.reason), r.detail[0] != '\0' ? ": " : "", r.detail.data());
+      }
+    }
+    const firmware::ControllerStats& st = controller.stats();
+    const firmware::ExecutiveStats& es = executive.stats();
+    const bool completed = st.goals_reached > 0;
+    std::printf("mgc: summary: lift %s", completed ? "completed" : "not completed");
+    if (completed && goal_request_us >= 0) std::printf(" in %.1f s", static_cast<double>(done_us - goal_request_us) * 1e-6);
+    std::printf(", state %s (%s), %d re-plans (%d escapes), %d safety stops, least clearance while moving %.2f m, %d alerts, "
+                "%d commands refused\n",
+                guidance::to_string(controller.supervisor().state()), guidance::to_string(controller.supervisor().reason()),
+                st.replans, st.escapes, st.safety_stops, st.min_clearance_m, alerts_raised, st.commands_rejected);
+    std::printf("mgc: loop: %" PRIu64 " cycles at %" PRId64 " us, compute p99 %" PRId64 " us max %" PRId64
+                " us, wake-up lateness p99 %" PRId64 " us max %" PRId64 " us, %" PRIu64 " deadline misses, %" PRIu64
+                " watchdog trips, %" PRIu64 " snapshots dropped%s\n",
+                es.cycles, period_us, es.compute.percentile_us(0.99), es.compute.max_us(), es.lateness.percentile_us(0.99),
+                es.lateness.max_us(), es.deadline_misses, es.watchdog_trips, snapshots.dropped(),
+                trace_dropped > 0 ? ", trace full" : "");
+    if (!completed && exit_when_done) exit_code = 1;
+    return exit_code;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mgc: %s\n", e.what());
+    return 2;
+  }
+}
