@@ -21,6 +21,7 @@
 #include "json_writer.hpp"
 #include "plan_json.hpp"
 #include "svg_view.hpp"
+#include "trace_view.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
 #include "mgc/planning/planners/anytime.hpp"
@@ -280,6 +281,8 @@ int main(int argc, char** argv) {
   app.add_flag("--svg-tree", options.svg_tree, "also draw the planner's tree in the --svg views");
   bool no_smooth = false;
   app.add_flag("--no-smooth", no_smooth, "keep the planner's raw path (default: shortcut-smoothed)");
+  std::string trace;
+  app.add_option("--trace", trace, "draw a controller run instead of planning: the trace of mgc --trace-csv, into --svg");
   bool cycle = false;
   app.add_flag("--cycle", cycle,
                "plan the scenario's work cycle (move-to-dump, dump, return; needs a work_cycle section and "
@@ -294,6 +297,18 @@ int main(int argc, char** argv) {
   if (*seed_option) options.seed = seed;
   options.smooth = !no_smooth;
   if (*iterations_option) options.max_iterations = max_iterations;
+  if (!trace.empty()) {
+    if (check || planner_option->count() > 0 || options.svg.empty()) {
+      std::fprintf(stderr, "mgc-plan: --trace: expected --svg OUT and neither --check nor --planner\n");
+      return 2;
+    }
+    try {
+      return mgc::tools::run_trace_view(options.scenario, trace, options.svg);
+    } catch (const mgc::planning::io::InputError& e) {
+      std::fprintf(stderr, "%s\n", e.what());
+      return 2;
+    }
+  }
   if (check == (planner_option->count() > 0)) {
     std::fprintf(stderr, "mgc-plan: give either --check or --planner NAME (see --help)\n");
     return 2;

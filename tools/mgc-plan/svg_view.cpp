@@ -106,8 +106,10 @@ std::string render_svg(const SvgInput& in) {
   std::vector<std::vector<Eigen::Vector3d>> obstacles;
   for (const auto& o : scenario.obstacles) obstacles.push_back(shape_corners(o.shape, Eigen::Isometry3d::Identity()));
   std::vector<std::vector<Eigen::Vector3d>> dynamic;
-  for (const auto& d : scenario.dynamic_obstacles) {
-    for (const auto& part : d.obstacle.parts) dynamic.push_back(shape_corners(part, d.pose_at(0.0)));
+  for (std::size_t i = 0; i < scenario.dynamic_obstacles.size(); ++i) {
+    const auto& d = scenario.dynamic_obstacles[i];
+    const Eigen::Isometry3d pose = i < in.dynamic_poses.size() ? in.dynamic_poses[i] : d.pose_at(0.0);
+    for (const auto& part : d.obstacle.parts) dynamic.push_back(shape_corners(part, pose));
   }
   const auto machine_at = [&](const JointVector& q) {
     model.forward_kinematics(q, k);

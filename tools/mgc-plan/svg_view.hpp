@@ -17,6 +17,8 @@ struct SvgInput {
   std::vector<planning::JointVector> tree_nodes;  //!< empty: no tree
   std::vector<int> tree_parents;
   planning::JointVector step;  //!< path sampling resolution [rad | m]
+  //! Where to draw the dynamic obstacles, in scenario order; empty: where the scenario has them at t = 0.
+  std::vector<Eigen::Isometry3d> dynamic_poses;
 };
 
 //! Top view (x right, y up) and side view (x right, z up), side by side, as one SVG document.

@@ -1,0 +1,200 @@
+// SPDX-License-Identifier: Apache-2.0
+// mgc-operator: an operator station on the LCM feed (docs/operator-feed.md). Sends signed goal and
+// acknowledge commands and unsigned stops, and prints the guidance and alerts as they change.
+#include <CLI/CLI.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <string>
+
+#include <mgc/alert_t.hpp>
+#include <mgc/command_status_t.hpp>
+#include <mgc/machine_state_t.hpp>
+#include <mgc/operator_command_t.hpp>
+#include <mgc/operator_instruction_t.hpp>
+
+#include "mgc/firmware/command_auth.hpp"
+#include "mgc/firmware/lcm_feed.hpp"
+#include "mgc/planning/io/scenario_loader.hpp"
+
+namespace {
+
+const char* severity_name(std::int8_t s) {
+  static const char* names[] = {"unknown", "info", "warn", "slow-down", "stop", "fault"};
+  return s >= 0 && s <= 5 ? names[s] : "unknown";
+}
+const char* source_name(std::int8_t s) {
+  static const char* names[] = {"unknown", "collision", "envelope", "load chart", "sensing", "watchdog", "planner", "operator"};
+  return s >= 0 && s <= 7 ? names[s] : "unknown";
+}
+const char* state_name(std::int8_t s) {
+  static const char* names[] = {"UNKNOWN", "INIT", "HOLD", "PLANNING", "EXECUTING", "STOPPING", "REPLANNING", "FAULT", "ESTOP"};
+  return s >= 0 && s <= 8 ? names[s] : "UNKNOWN";
+}
+
+std::int64_t wall_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+//! Prints what changes on the feed.
+class Watcher {
+ public:
+  explicit Watcher(std::int64_t start_us) : start_us_(start_us) {}
+
+  void on_state(const lcm::ReceiveBuffer*, const std::string&, const mgc::machine_state_t* m) {
+    if (m->supervisor_state != state_) {
+      print_time();
+      std::printf("state %s\n", state_name(m->supervisor_state));
+      if (state_ == mgc::machine_state_t::SUPERVISOR_EXECUTING && m->supervisor_state == mgc::machine_state_t::SUPERVISOR_HOLD) {
+        ++lifts_ended_;
+      }
+      state_ = m->supervisor_state;
+    }
+    last_state_us_ = now();
+  }
+  void on_instruction(const lcm::ReceiveBuffer*, const std::string&, const mgc::operator_instruction_t* i) {
+    if (i->text != text_ && !i->text.empty()) {
+      print_time();
+      std::printf("guidance: %s (nearest obstacle %.1f m", i->text.c_str(), i->obstacle_clearance);
+      if (std::isfinite(i->load_moment_pct)) std::printf(", load moment %.0f %%", i->load_moment_pct);
+      std::printf(")\n");
+    }
+    text_ = i->text;
+  }
+  void on_alert(const lcm::ReceiveBuffer*, const std::string&, const mgc::alert_t* a) {
+    // Active alerts repeat at 1 Hz: say each raise and each clear once.
+    if (a->active == (announced_.count(a->alert_id) > 0)) return;
+    if (a->active) {
+      announced_.insert(a->alert_id);
+    } else {
+      announced_.erase(a->alert_id);
+    }
+    print_time();
+    std::printf("alert %d %s: %s %s", a->alert_id, a->active ? "raised" : "cleared", severity_name(a->severity),
+                source_name(a->source));
+    if (a->active && std::isfinite(a->value)) std::printf(", value %.2f (limit %.2f)", a->value, a->limit);
+    std::printf("\n");
+  }
+  void on_status(const lcm::ReceiveBuffer*, const std::string&, const mgc::command_status_t* s) {
+    print_time();
+    std::printf("command %lld from %d %s (reason %d)\n", static_cast<long long>(s->sequence), s->sender_id,
+                s->accepted ? "accepted" : "REFUSED", s->reason);
+  }
+
+  [[nodiscard]] int lifts_ended() const { return lifts_ended_; }
+  [[nodiscard]] std::int8_t state() const { return state_; }
+  [[nodiscard]] std::int64_t last_state_us() const { return last_state_us_; }
+  [[nodiscard]] std::int64_t now() const {
+    return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  }
+
+ private:
+  void print_time() const { std::printf("mgc-operator: %7.2f s  ", static_cast<double>(now() - start_us_) * 1e-6); }
+
+  std::int64_t start_us_;
+  std::int8_t state_ = 0;
+  std::int64_t last_state_us_ = 0;
+  std::string text_;
+  int lifts_ended_ = 0;
+  std::set<std::int32_t> announced_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"mgc-operator: send operator commands to mgc over LCM and watch its guidance (docs/operator-feed.md)"};
+  std::string lcm_url = mgc::firmware::kDefaultLcmUrl;
+  std::string key_file;
+  std::string scenario_file;
+  bool goal = false;
+  bool stop = false;
+  bool acknowledge = false;
+  double watch_s = 0.0;
+  bool until_done = false;
+  int sender_id = 1;
+  app.add_option("--lcm-url", lcm_url, "LCM provider")->capture_default_str();
+  app.add_option("--key", key_file, "shared command key (32 raw bytes), needed for --goal and --ack");
+  app.add_option("--scenario", scenario_file, "scenario whose goal --goal requests");
+  app.add_flag("--goal", goal, "request the scenario's goal (signed)");
+  app.add_flag("--stop", stop, "stop (unsigned: obeyed from anyone)");
+  app.add_flag("--ack", acknowledge, "acknowledge every alert waiting for it (signed)");
+  app.add_option("--watch", watch_s, "print the guidance and alerts for this many seconds")->check(CLI::NonNegativeNumber);
+  app.add_flag("--until-done", until_done, "with --watch: end when a lift ends (EXECUTING to HOLD) or in FAULT or ESTOP");
+  app.add_option("--sender-id", sender_id, "this station's id")->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::fprintf(stderr, "mgc-operator: %s (see --help)\n", e.what());
+    return 2;
+  }
+  if ((goal || acknowledge) && key_file.empty()) {
+    std::fprintf(stderr, "mgc-operator: --goal and --ack are signed: expected --key FILE\n");
+    return 2;
+  }
+  if (goal && scenario_file.empty()) {
+    std::fprintf(stderr, "mgc-operator: --goal: expected --scenario FILE for the goal\n");
+    return 2;
+  }
+
+  lcm::LCM lcm(lcm_url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "mgc-operator: --lcm-url: cannot open '%s'\n", lcm_url.c_str());
+    return 2;
+  }
+  Watcher watcher(std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
+  lcm.subscribe(mgc::firmware::channel::kMachineState, &Watcher::on_state, &watcher);
+  lcm.subscribe(mgc::firmware::channel::kOperatorInstruction, &Watcher::on_instruction, &watcher);
+  lcm.subscribe(mgc::firmware::channel::kAlert, &Watcher::on_alert, &watcher);
+  lcm.subscribe(mgc::firmware::channel::kCommandStatus, &Watcher::on_status, &watcher);
+
+  try {
+    const auto send = [&](std::int8_t kind, const mgc::planning::Scenario* s) {
+      mgc::operator_command_t cmd{};
+      cmd.utime = watcher.now();
+      cmd.kind = kind;
+      cmd.sender_id = sender_id;
+      // Never repeats over the key's life (docs/operator-feed.md): the wall clock in µs.
+      cmd.sequence = wall_us();
+      if (s) {
+        cmd.num_joints = static_cast<std::int8_t>(s->goal.size());
+        for (int j = 0; j < s->goal.size(); ++j) cmd.goal_position[j] = s->goal[j];
+      }
+      if (!key_file.empty()) mgc::firmware::sign_command(cmd, mgc::firmware::load_command_key(key_file));
+      lcm.publish(mgc::firmware::channel::kCommand, &cmd);
+    };
+    if (stop) send(mgc::operator_command_t::KIND_STOP, nullptr);
+    if (acknowledge) send(mgc::operator_command_t::KIND_ACKNOWLEDGE, nullptr);
+    if (goal) {
+      const mgc::planning::Scenario s = mgc::planning::io::load_scenario(scenario_file);
+      // The controller takes a goal only in HOLD: wait for it (up to 10 s) before sending.
+      const std::int64_t give_up = watcher.now() + 10'000'000;
+      while (watcher.state() != mgc::machine_state_t::SUPERVISOR_HOLD && watcher.now() < give_up) lcm.handleTimeout(100);
+      if (watcher.state() != mgc::machine_state_t::SUPERVISOR_HOLD) {
+        std::fprintf(stderr, "mgc-operator: no controller in HOLD on %s within 10 s\n", lcm_url.c_str());
+        return 1;
+      }
+      send(mgc::operator_command_t::KIND_GOAL, &s);
+    }
+  } catch (const mgc::planning::io::InputError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 2;
+  } catch (const mgc::firmware::CommandKeyError& e) {
+    std::fprintf(stderr, "mgc-operator: --key: %s\n", e.what());
+    return 2;
+  }
+
+  const std::int64_t end = watcher.now() + static_cast<std::int64_t>(watch_s * 1e6);
+  while (watcher.now() < end) {
+    lcm.handleTimeout(100);
+    if (until_done && (watcher.lifts_ended() > 0 || watcher.state() == mgc::machine_state_t::SUPERVISOR_FAULT ||
+                       watcher.state() == mgc::machine_state_t::SUPERVISOR_ESTOP)) {
+      break;
+    }
+  }
+  std::fflush(stdout);
+  return 0;
+}
