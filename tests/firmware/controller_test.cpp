@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <string>
@@ -26,6 +27,7 @@ struct Run {
   SimRig rig;
   firmware::Controller controller;
   firmware::ControllerOutput out{};
+  firmware::ControllerCommands last_commands{};
   std::unique_ptr<planning::MachineModel> truth_model;
   std::unique_ptr<planning::CollisionWorld> truth_world;
   double min_true_clearance_m = std::numeric_limits<double>::infinity();
@@ -49,6 +51,7 @@ struct Run {
       commands.goal_request = true;
       goal_sent = true;
     }
+    last_commands = commands;
     out = controller.step(s, SimRig::kCycleUs, commands, false);
     if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
     for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
@@ -166,4 +169,60 @@ TEST_CASE("the controller ends each sensing fault of the simulator in a controll
       CHECK(run.out.velocity[static_cast<std::size_t>(j)] == 0.0);
     }
   }
+}
+
+TEST_CASE("the controller replays the same inputs to bit-identical outputs", "[firmware][sim]") {
+  // Record what the controller was given in a run with the intruding crane and noisy sensors,
+  // then feed a fresh controller the same inputs: every command and every snapshot field must
+  // come out the same, bit for bit.
+  struct Input {
+    hal::SensorSnapshot snapshot;
+    firmware::ControllerCommands commands;
+  };
+  struct Output {
+    std::array<double, kMaxJoints> velocity{};
+    guidance::SupervisorState state = guidance::SupervisorState::Init;
+    double clearance_m = 0.0;
+    std::array<char, firmware::kInstructionTextBytes> words{};
+    std::uint32_t plan_id = 0;
+  };
+  sim::SimConfig config;
+  config.scenario_time_offset_s = 10.0;
+  Run run("thesis-steel-frame.yaml", config, "ctl-replay");
+  std::vector<Input> inputs;
+  std::vector<Output> outputs;
+  const auto output_of = [](const firmware::Controller& c, const firmware::ControllerOutput& out) {
+    Output o;
+    for (std::size_t j = 0; j < out.velocity.size(); ++j) o.velocity[j] = out.velocity[j];
+    o.state = out.supervisor.state;
+    o.clearance_m = c.snapshot().obstacle_clearance_m;
+    o.words = c.snapshot().instruction_text;
+    o.plan_id = c.snapshot().plan.plan_id;
+    return o;
+  };
+  run.rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+    run.cycle(s);
+    inputs.push_back({s, run.last_commands});
+    outputs.push_back(output_of(run.controller, run.out));
+  };
+  run.rig.run(SimRig::at_sim_s(90.0) - run.rig.t_us);
+  REQUIRE(run.controller.stats().replans >= 1);
+
+  firmware::Controller replay(run.rig.scenario, firmware::ControllerConfig{});
+  std::size_t mismatches = 0;
+  std::size_t first_mismatch = inputs.size();
+  for (std::size_t i = 0; i < inputs.size(); ++i) {
+    const firmware::ControllerOutput out = replay.step(inputs[i].snapshot, SimRig::kCycleUs, inputs[i].commands, false);
+    const Output o = output_of(replay, out);
+    const Output& want = outputs[i];
+    const bool same = std::memcmp(o.velocity.data(), want.velocity.data(), sizeof o.velocity) == 0 && o.state == want.state &&
+                      std::memcmp(&o.clearance_m, &want.clearance_m, sizeof o.clearance_m) == 0 && o.words == want.words &&
+                      o.plan_id == want.plan_id;
+    if (!same) {
+      ++mismatches;
+      first_mismatch = std::min(first_mismatch, i);
+    }
+  }
+  CAPTURE(inputs.size(), first_mismatch);
+  CHECK(mismatches == 0);
 }
