@@ -56,7 +56,16 @@ class Watcher {
     last_state_us_ = now();
   }
   void on_instruction(const lcm::ReceiveBuffer*, const std::string&, const mgc::operator_instruction_t* i) {
-    if (i->text != text_ && !i->text.empty()) {
+    // The amounts shrink every cycle of a move: say the words again when the moves themselves
+    // change, and otherwise every 10 s.
+    std::string moves;
+    for (char c : i->text) {
+      if ((c < '0' || c > '9') && c != '.') moves += c;
+    }
+    const bool due = now() - last_text_us_ >= 10'000'000;
+    if (!i->text.empty() && i->text != text_ && (moves != moves_ || due)) {
+      last_text_us_ = now();
+      moves_ = moves;
       print_time();
       std::printf("guidance: %s (nearest obstacle %.1f m", i->text.c_str(), i->obstacle_clearance);
       if (std::isfinite(i->load_moment_pct)) std::printf(", load moment %.0f %%", i->load_moment_pct);
@@ -98,6 +107,8 @@ class Watcher {
   std::int8_t state_ = 0;
   std::int64_t last_state_us_ = 0;
   std::string text_;
+  std::string moves_;
+  std::int64_t last_text_us_ = 0;
   int lifts_ended_ = 0;
   std::set<std::int32_t> announced_;
 };
