@@ -52,7 +52,7 @@ struct Run {
       goal_sent = true;
     }
     last_commands = commands;
-    out = controller.step(s, SimRig::kCycleUs, commands, false);
+    out = controller.step(s, rig.cycle_us, commands, false);
     if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
     for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
     if (out.supervisor.transitioned) {
@@ -66,7 +66,7 @@ struct Run {
                                  : std::string()));
     }
     if (out.supervisor.reason == guidance::TransitionReason::GoalReached && done_us < 0) done_us = s.t_us;
-    if (s.cycle % 5 == 0) {
+    if (s.cycle % static_cast<std::uint64_t>(50'000 / rig.cycle_us) == 0) {
       const auto& truth = rig.sim->truth();
       planning::JointVector q(controller.num_joints());
       for (int j = 0; j < controller.num_joints(); ++j) q[j] = truth.position[static_cast<std::size_t>(j)];
@@ -128,6 +128,22 @@ TEST_CASE("the controller completes the lift with UWB noise and dropouts and enc
   CHECK(st.goals_reached == 1);
   CHECK(st.replans >= 1);
   CHECK(st.safety_stops <= 3);
+  CHECK(run.min_true_clearance_m > firmware::ControllerConfig{}.stop_check.stop_margin_m);
+}
+
+TEST_CASE("the controller completes the lift at 500 Hz", "[firmware][sim][e2e]") {
+  sim::SimConfig config = SimRig::quiet_config();
+  config.scenario_time_offset_s = 10.0;
+  Run run("thesis-steel-frame.yaml", config, "ctl-500hz");
+  run.rig.cycle_us = 2'000;
+  run.rig.run(SimRig::at_sim_s(200.0) - run.rig.t_us);
+  const firmware::ControllerStats& st = run.controller.stats();
+  INFO(run.log());
+  CAPTURE(st.cycles, st.replans, st.safety_stops, run.min_true_clearance_m);
+  CHECK(st.cycles > 90'000);
+  CHECK(st.goals_reached == 1);
+  CHECK(st.replans >= 1);
+  CHECK(st.trajectory_errors == 0);
   CHECK(run.min_true_clearance_m > firmware::ControllerConfig{}.stop_check.stop_margin_m);
 }
 

@@ -68,7 +68,7 @@ class SimRig {
     while (t_us < end) {
       t_us += kPhysicsUs;
       clock.set_us(t_us);
-      if (controller_alive && t_us % kCycleUs == 0) {
+      if (controller_alive && t_us % cycle_us == 0) {
         last = &hal->read(t_us);
         if (on_cycle) on_cycle(*last);
         if (send_commands) (void)hal->write(command, t_us);
@@ -93,6 +93,8 @@ class SimRig {
   std::unique_ptr<sim::Simulator> sim;
   std::unique_ptr<hal::Hal> hal;
   std::vector<double> command;
+  //! The controller's period: kCycleUs (100 Hz) unless a test runs it faster; a multiple of kPhysicsUs. [µs]
+  std::int64_t cycle_us = kCycleUs;
   bool send_commands = true;
   std::function<void(const hal::SensorSnapshot&)> on_cycle;
   const hal::SensorSnapshot* last = nullptr;
