@@ -13,8 +13,10 @@
 #include <fcl/narrowphase/distance.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -213,6 +215,14 @@ bool distance_callback(CollisionObject* a, CollisionObject* b, void* raw, double
   return data->best <= 0.0;
 }
 
+// Bit-for-bit equality: a pose or size that equal gives every query the same inputs, so the same
+// answer (operator== would also match -0.0 with 0.0, and never a NaN with itself).
+template <typename Derived>
+bool same_bits(const Eigen::DenseBase<Derived>& a, const Eigen::DenseBase<Derived>& b) noexcept {
+  static_assert(Derived::SizeAtCompileTime > 0);
+  return std::memcmp(a.derived().data(), b.derived().data(), sizeof(double) * Derived::SizeAtCompileTime) == 0;
+}
+
 }  // namespace
 
 struct CollisionWorld::Impl {
@@ -229,10 +239,65 @@ struct CollisionWorld::Impl {
     std::string name;
     std::vector<DynamicPart> parts;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    fcl::AABBd bounds;  //!< around every part's world AABB: a body clear of it is clear of them all
+
+    void bound() noexcept {
+      bounds = parts.front().object->getAABB();
+      for (const auto& part : parts) bounds += part.object->getAABB();
+    }
+  };
+
+  static constexpr int kUnknown = -2;  //!< a result not yet found
+  //! One body's collision results at one exact pose and size (bit for bit, as forward
+  //! kinematics gave them). They depend on nothing else the world can change after finalize()
+  //! but the dynamic obstacles' poses: the static result holds for good, the dynamic one while
+  //! `dynamic_epoch` is the world's.
+  struct Result {
+    Eigen::Matrix4d pose = Eigen::Matrix4d::Zero();
+    Eigen::Vector3d size = Eigen::Vector3d::Zero();
+    std::uint64_t stamp = 0;          //!< unique per filling of the slot; 0: empty
+    int static_hit = kUnknown;        //!< first static obstacle hit, -1 none
+    std::uint64_t dynamic_epoch = 0;  //!< epoch dynamic_hit was found in; 0: not known
+    int dynamic_hit = -1;             //!< first dynamic obstacle hit, -1 none
+  };
+  //! Poses remembered per body: the last few, so a tree node's neighbours tried one after the
+  //! other (each moving another joint) still find the unmoved bodies' results.
+  static constexpr std::size_t kSlots = 4;
+  struct BodyResults {
+    std::array<Result, kSlots> slots{};
+    std::size_t current = 0;  //!< slot of the body's present pose
+    std::size_t next = 0;     //!< slot a new pose replaces (round robin)
+  };
+  //! A self pair's result for the two bodies' slot stamps.
+  struct PairResult {
+    std::uint64_t stamp_a = 0;
+    std::uint64_t stamp_b = 0;
+    bool hit = false;
   };
 
   std::vector<Body> bodies;
   std::vector<unsigned char> body_moves;  //!< per body, see CollisionWorld::body_moves
+  std::vector<BodyResults> results;       //!< per body
+  std::vector<PairResult> pair_results;   //!< per MachineModel::self_pairs() entry
+  std::uint64_t next_stamp = 1;
+  std::uint64_t dynamic_epoch = 1;        //!< advances whenever a dynamic obstacle moves
+  bool reuse = true;
+  std::uint64_t body_checks = 0;
+
+  //! Forgets every remembered result (the obstacle set changed).
+  void forget() noexcept {
+    for (auto& r : results) r = BodyResults{};
+    for (auto& p : pair_results) p = PairResult{};
+    ++dynamic_epoch;
+  }
+  //! The slot holding body b's results at its present pose, filled in pose_machine().
+  Result& result(std::size_t b) noexcept { return results[b].slots[results[b].current]; }
+  //! First static obstacle body b hits at its present pose, -1 if none.
+  int static_hit(std::size_t b) noexcept;
+  //! First dynamic obstacle body b hits at its present pose, -1 if none.
+  int dynamic_hit(std::size_t b) noexcept;
+  //! Whether self pair p collides at the two bodies' present poses.
+  bool pair_hit(std::size_t p, const SelfPair& pair) noexcept;
   std::vector<std::unique_ptr<PosedObject>> statics;
   std::vector<Dynamic> dynamics;
   fcl::DynamicAABBTreeCollisionManagerd manager;
@@ -244,6 +309,51 @@ struct CollisionWorld::Impl {
   fcl::DistanceRequestd distance_request;
   fcl::DistanceResultd distance_result;
 };
+
+int CollisionWorld::Impl::static_hit(std::size_t b) noexcept {
+  Result& r = result(b);
+  if (reuse && r.static_hit != kUnknown) return r.static_hit;
+  ++body_checks;
+  CollideData data{&collision_request, &collision_result, -1};
+  manager.collide(bodies[b].object.get(), &data, collide_callback);
+  r.static_hit = data.hit;
+  return data.hit;
+}
+
+int CollisionWorld::Impl::dynamic_hit(std::size_t b) noexcept {
+  Result& r = result(b);
+  if (reuse && r.dynamic_epoch == dynamic_epoch) return r.dynamic_hit;
+  int hit = -1;
+  CollisionObject* body = bodies[b].object.get();
+  for (std::size_t d = 0; d < dynamics.size() && hit < 0; ++d) {
+    if (!body->getAABB().overlap(dynamics[d].bounds)) continue;
+    for (auto& part : dynamics[d].parts) {
+      if (!body->getAABB().overlap(part.object->getAABB())) continue;
+      if (intersects(body, part.object.get(), collision_request, collision_result)) {
+        hit = static_cast<int>(d);
+        break;
+      }
+    }
+  }
+  r.dynamic_epoch = dynamic_epoch;
+  r.dynamic_hit = hit;
+  return hit;
+}
+
+bool CollisionWorld::Impl::pair_hit(std::size_t p, const SelfPair& pair) noexcept {
+  const auto a = static_cast<std::size_t>(pair.body_a);
+  const auto b = static_cast<std::size_t>(pair.body_b);
+  PairResult& cached = pair_results[p];
+  const std::uint64_t stamp_a = result(a).stamp;
+  const std::uint64_t stamp_b = result(b).stamp;
+  if (reuse && cached.stamp_a == stamp_a && cached.stamp_b == stamp_b && stamp_a != 0 && stamp_b != 0) return cached.hit;
+  CollisionObject* object_a = bodies[a].object.get();
+  CollisionObject* object_b = bodies[b].object.get();
+  const bool hit = object_a->getAABB().overlap(object_b->getAABB()) &&
+                   intersects(object_a, object_b, collision_request, collision_result);
+  cached = {stamp_a, stamp_b, hit};
+  return hit;
+}
 
 CollisionWorld::CollisionWorld(const MachineModel& model, double dilation_m)
     : model_(model), dilation_m_(dilation_m), impl_(std::make_unique<Impl>()) {
@@ -263,6 +373,8 @@ CollisionWorld::CollisionWorld(const MachineModel& model, double dilation_m)
     body.object = std::make_unique<PosedObject>(geometry);
     impl_->bodies.push_back(std::move(body));
   }
+  impl_->results.resize(impl_->bodies.size());
+  impl_->pair_results.resize(model.self_pairs().size());
   // One contact is all a yes/no query needs; the result keeps its buffer across clear().
   impl_->collision_request.num_max_contacts = 1;
   impl_->collision_request.enable_contact = false;
@@ -309,6 +421,7 @@ int CollisionWorld::add_static(StaticObstacle obstacle) {
   object->setUserData(encode_index(index));
   impl_->statics.push_back(std::move(object));
   static_names_.push_back(std::move(obstacle.name));
+  impl_->forget();
   return index;
 }
 
@@ -327,7 +440,9 @@ int CollisionWorld::add_dynamic(DynamicObstacle obstacle) {
     p.object->compute_tight_aabb();
     dynamic.parts.push_back(std::move(p));
   }
+  dynamic.bound();
   impl_->dynamics.push_back(std::move(dynamic));
+  impl_->forget();
   return index;
 }
 
@@ -340,6 +455,7 @@ void CollisionWorld::finalize() {
   impl_->manager.setup();
   impl_->collision_result.clear();
   impl_->finalized = true;
+  impl_->forget();
 }
 
 int CollisionWorld::num_dynamic() const noexcept { return static_cast<int>(impl_->dynamics.size()); }
@@ -355,6 +471,8 @@ void CollisionWorld::set_dynamic_pose(int index, const Eigen::Isometry3d& world_
     part.object->setTransform(world_from_obstacle * part.obstacle_from_part);
     part.object->compute_tight_aabb();
   }
+  dynamic.bound();
+  ++impl_->dynamic_epoch;
 }
 
 const Eigen::Isometry3d& CollisionWorld::dynamic_pose(int index) const noexcept {
@@ -369,11 +487,13 @@ void CollisionWorld::pose_machine(const JointVector& q) noexcept {
     const BodyState& state = impl_->kinematics.bodies[i];
     // Shapes are resized in place (FCL primitives are plain data), so a telescoping boom or a
     // paying-out cable needs no new geometry; the local AABB is redone only when a size changed.
+    bool resized = false;
     if (body.box) {
       const Eigen::Vector3d side = state.size_m + Eigen::Vector3d::Constant(2.0 * m);
       if (side != body.box->side) {
         body.box->side = side;
         body.box->computeLocalAABB();
+        resized = true;
       }
     } else {
       const double radius_m = 0.5 * state.size_m.x() + m;
@@ -382,10 +502,36 @@ void CollisionWorld::pose_machine(const JointVector& q) noexcept {
         body.capsule->radius = radius_m;
         body.capsule->lz = length_m;
         body.capsule->computeLocalAABB();
+        resized = true;
       }
     }
-    body.object->setTransform(state.world_from_body);
-    body.object->compute_tight_aabb();
+    // A body the configuration did not move (the carrier always; whatever sits upstream of the
+    // joints an edge moves) keeps its transform and world AABB.
+    if (resized || !same_bits(body.object->getTransform().matrix(), state.world_from_body.matrix())) {
+      body.object->setTransform(state.world_from_body);
+      body.object->compute_tight_aabb();
+    }
+    // Its results at this exact pose and size, if remembered; else a fresh slot.
+    Impl::BodyResults& results = impl_->results[i];
+    std::size_t slot = Impl::kSlots;
+    for (std::size_t k = 0; k < Impl::kSlots; ++k) {
+      const Impl::Result& r = results.slots[(results.current + k) % Impl::kSlots];
+      if (r.stamp != 0 && same_bits(r.pose, state.world_from_body.matrix()) && same_bits(r.size, state.size_m)) {
+        slot = (results.current + k) % Impl::kSlots;
+        break;
+      }
+    }
+    if (slot == Impl::kSlots) {
+      slot = results.next;
+      results.next = (results.next + 1) % Impl::kSlots;
+      Impl::Result& r = results.slots[slot];
+      r.pose = state.world_from_body.matrix();
+      r.size = state.size_m;
+      r.stamp = impl_->next_stamp++;
+      r.static_hit = Impl::kUnknown;
+      r.dynamic_epoch = 0;
+    }
+    results.current = slot;
   }
 }
 
@@ -393,31 +539,26 @@ bool CollisionWorld::is_free(const JointVector& q, Contact* contact) noexcept {
   ++collision_checks_;
   pose_machine(q);
   auto& impl = *impl_;
-  CollideData data{&impl.collision_request, &impl.collision_result, -1};
+  // Body by body, static obstacles then dynamic ones, then the self pairs: the first contact in
+  // this order is the one reported. A body at a pose already checked (bit for bit) reuses its
+  // results, the dynamic one only while no dynamic obstacle has moved since.
   const int num_bodies = static_cast<int>(impl.bodies.size());
   for (int b = 0; b < num_bodies; ++b) {
-    CollisionObject* body = impl.bodies[static_cast<std::size_t>(b)].object.get();
-    impl.manager.collide(body, &data, collide_callback);
-    if (data.hit >= 0) {
-      if (contact) *contact = {Contact::With::Static, b, data.hit};
+    const int hit = impl.static_hit(static_cast<std::size_t>(b));
+    if (hit >= 0) {
+      if (contact) *contact = {Contact::With::Static, b, hit};
       return false;
     }
-    for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
-      for (auto& part : impl.dynamics[d].parts) {
-        if (!body->getAABB().overlap(part.object->getAABB())) continue;
-        if (intersects(body, part.object.get(), impl.collision_request, impl.collision_result)) {
-          if (contact) *contact = {Contact::With::Dynamic, b, static_cast<int>(d)};
-          return false;
-        }
-      }
+    const int dynamic = impl.dynamic_hit(static_cast<std::size_t>(b));
+    if (dynamic >= 0) {
+      if (contact) *contact = {Contact::With::Dynamic, b, dynamic};
+      return false;
     }
   }
-  for (const SelfPair& pair : model_.self_pairs()) {
-    CollisionObject* a = impl.bodies[static_cast<std::size_t>(pair.body_a)].object.get();
-    CollisionObject* b = impl.bodies[static_cast<std::size_t>(pair.body_b)].object.get();
-    if (!a->getAABB().overlap(b->getAABB())) continue;
-    if (intersects(a, b, impl.collision_request, impl.collision_result)) {
-      if (contact) *contact = {Contact::With::Self, pair.body_a, pair.body_b};
+  const auto pairs = model_.self_pairs();
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    if (impl.pair_hit(p, pairs[p])) {
+      if (contact) *contact = {Contact::With::Self, pairs[p].body_a, pairs[p].body_b};
       return false;
     }
   }
@@ -431,15 +572,10 @@ bool CollisionWorld::hits_dynamic(const JointVector& q, Contact* contact) noexce
   ++collision_checks_;
   pose_machine(q);
   for (std::size_t b = 0; b < impl.bodies.size(); ++b) {
-    CollisionObject* body = impl.bodies[b].object.get();
-    for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
-      for (auto& part : impl.dynamics[d].parts) {
-        if (!body->getAABB().overlap(part.object->getAABB())) continue;
-        if (intersects(body, part.object.get(), impl.collision_request, impl.collision_result)) {
-          if (contact) *contact = {Contact::With::Dynamic, static_cast<int>(b), static_cast<int>(d)};
-          return true;
-        }
-      }
+    const int dynamic = impl.dynamic_hit(b);
+    if (dynamic >= 0) {
+      if (contact) *contact = {Contact::With::Dynamic, static_cast<int>(b), dynamic};
+      return true;
     }
   }
   return false;
@@ -483,6 +619,17 @@ Validity CollisionWorld::validate_edge(const JointVector& from, const JointVecto
   }
   return {};
 }
+
+void CollisionWorld::reuse_results(bool on) noexcept {
+  impl_->reuse = on;
+  impl_->forget();
+}
+
+void CollisionWorld::forget_results() noexcept { impl_->forget(); }
+
+bool CollisionWorld::reuses_results() const noexcept { return impl_->reuse; }
+
+std::uint64_t CollisionWorld::body_checks() const noexcept { return impl_->body_checks; }
 
 bool CollisionWorld::body_moves(int body) const noexcept { return impl_->body_moves[static_cast<std::size_t>(body)] != 0; }
 

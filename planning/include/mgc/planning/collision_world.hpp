@@ -83,7 +83,10 @@ class CollisionWorld {
   //! dilation between two of them (MachineModel::displacement_bound). So when the edge is valid,
   //! the machine's real bodies keep at least half the dilation from every obstacle along the whole
   //! continuous motion, not only at the samples. On failure, `at` (if given) receives the first
-  //! invalid configuration.
+  //! invalid configuration. Every sample is a full validate() (joint ranges, constraints,
+  //! collision), and the verdict is the one validating the samples one by one gives; a body the
+  //! edge does not move (upstream of the joint a one-joint edge moves) keeps its pose, so its
+  //! results are found at the first sample and reused at the rest (see body_checks()).
   [[nodiscard]] Validity validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
                                        JointVector* at = nullptr) noexcept;
   //! Which machine bodies a clearance query measures.
@@ -116,6 +119,19 @@ class CollisionWorld {
 
   //! Collision queries made since construction (one per configuration checked).
   [[nodiscard]] std::uint64_t collision_checks() const noexcept { return collision_checks_; }
+  //! Machine bodies checked against the static site since construction (one broad-phase query
+  //! each). A body whose pose and size are bit for bit those of a recent check reuses that
+  //! check's results instead: its static ones always, its dynamic ones unless a dynamic obstacle
+  //! has moved since; a self pair likewise when neither body moved. Along an edge that moves one
+  //! joint, the bodies upstream of it are so checked once, not at every sample.
+  [[nodiscard]] std::uint64_t body_checks() const noexcept;
+  //! Turns that reuse off (every query checks every body and pair afresh, as a reference for
+  //! tests) or back on (the default). Either way it forgets the results remembered so far.
+  void reuse_results(bool on) noexcept;
+  [[nodiscard]] bool reuses_results() const noexcept;
+  //! Forgets the results remembered so far, so that the next query starts cold (benchmarks
+  //! timing one query at a time). RT-safe.
+  void forget_results() noexcept;
 
  private:
   struct Impl;
