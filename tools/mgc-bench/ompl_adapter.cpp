@@ -347,6 +347,7 @@ OmplResult solve_with_ompl(const PlanningProblem& problem, OmplPlanner which, co
   const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(options.time_limit_s));
   result.time_ms = elapsed_ms(t0);
   result.solve_collision_checks = problem.world->collision_checks();
+  result.solve_body_checks = problem.world->body_checks();
 
   ob::PlannerData data(si);
   planner->getPlannerData(data);

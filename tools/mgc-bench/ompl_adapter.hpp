@@ -43,6 +43,8 @@ struct OmplResult {
   int planner_data_vertices = 0;  //!< every PlannerData vertex (BIT* also lists unconnected samples)
   //! The world's collision_checks() when solve() returned, before simplification.
   std::uint64_t solve_collision_checks = 0;
+  //! The world's body_checks() then.
+  std::uint64_t solve_body_checks = 0;
   std::vector<planning::JointVector> path;        //!< raw: exact start to exact goal
   std::vector<planning::JointVector> simplified;  //!< after OMPL's PathSimplifier
   double simplify_ms = 0.0;     //!< PathSimplifier wall clock [ms]

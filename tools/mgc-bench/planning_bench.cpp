@@ -186,14 +186,19 @@ RunRecord run_ours(BenchScenario& s, const std::string& planner_name, int max_it
     r.error = "unknown planner";
     return r;
   }
+  // Every query starts cold: none reuses results the world remembers from the run before.
+  s.loaded.world->forget_results();
+  const std::uint64_t body_checks_before = s.loaded.world->body_checks();
   const auto t0 = std::chrono::steady_clock::now();
   PlannerStatus status = planner->reset(problem);
   while (status == PlannerStatus::Running) status = planner->step(100);
   const double time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const std::uint64_t body_checks = s.loaded.world->body_checks() - body_checks_before;
   const PlannerStats stats = planner->stats();
   RunRecord r = record_ours(s, planner_name, problem, status == PlannerStatus::Solved, time_ms, stats.iterations,
                             stats.tree_nodes, planner->path());
   r.collision_checks = stats.collision_checks;
+  r.body_checks = body_checks;
   return r;
 }
 
@@ -230,10 +235,13 @@ RunRecord run_ompl(BenchScenario& s, OmplPlanner planner, const OmplOptions& opt
   r.seed = seed;
 #ifdef MGC_BENCH_HAVE_OMPL
   const PlanningProblem problem = bench_problem(s, max_iterations, seed);
+  s.loaded.world->forget_results();
   const std::uint64_t checks_before = s.loaded.world->collision_checks();
+  const std::uint64_t body_checks_before = s.loaded.world->body_checks();
   const OmplResult result = solve_with_ompl(problem, planner, options, seed);
   // The simplifier's checks come after solve(): not the planner's.
   r.collision_checks = result.solve_collision_checks - checks_before;
+  r.body_checks = result.solve_body_checks - body_checks_before;
   r.success = result.solved;
   r.time_ms = result.time_ms;
   r.tree_nodes = result.tree_nodes;
@@ -311,6 +319,7 @@ Summary summarize(const std::string& header, const std::vector<RunRecord>& runs)
     s.times_ms.push_back(r.time_ms);
     s.mean_tree_nodes += r.tree_nodes;
     s.mean_collision_checks += static_cast<double>(r.collision_checks);
+    s.mean_body_checks += static_cast<double>(r.body_checks);
     s.mean_path_checks += static_cast<double>(r.path_checks);
     if (r.collision_checks > 0) s.us_per_check.push_back(1000.0 * r.time_ms / static_cast<double>(r.collision_checks));
     add(s.raw, r.raw);
@@ -320,6 +329,7 @@ Summary summarize(const std::string& header, const std::vector<RunRecord>& runs)
   const double n = s.successes > 0 ? s.successes : std::numeric_limits<double>::quiet_NaN();
   s.mean_tree_nodes /= n;
   s.mean_collision_checks /= n;
+  s.mean_body_checks /= n;
   s.mean_path_checks /= n;
   for (QualityMean* m : {&s.raw, &s.simplified, &s.our_smoothing}) {
     m->nodes /= n;
@@ -346,6 +356,7 @@ const char* metric_name(Metric m) {
     case Metric::SdMs: return "std. dev. [ms]";
     case Metric::TreeNodes: return "tree nodes";
     case Metric::CollisionChecks: return "collision checks";
+    case Metric::BodyChecks: return "bodies checked against the site";
     case Metric::PathChecks: return "checks to validate the raw path once";
     case Metric::UsPerCheck: return "planning time per check, median [us]";
     case Metric::PathNodes: return "path nodes, raw";
@@ -382,6 +393,7 @@ std::string cell(Metric m, const Summary& s) {
     case Metric::SdMs: return fixed(standard_deviation(s.times_ms), 2);
     case Metric::TreeNodes: return fixed(s.mean_tree_nodes, 1);
     case Metric::CollisionChecks: return fixed(s.mean_collision_checks, 0);
+    case Metric::BodyChecks: return fixed(s.mean_body_checks, 0);
     case Metric::PathChecks: return fixed(s.mean_path_checks, 0);
     case Metric::UsPerCheck: return fixed(percentile(s.us_per_check, 0.5), 2);
     case Metric::PathNodes: return fixed(s.raw.nodes, 1);
@@ -603,7 +615,7 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
 
   const std::vector<Metric> rows = {Metric::Success,       Metric::MedianMs,          Metric::P95Ms,
                                     Metric::P99Ms,         Metric::MeanMs,            Metric::TreeNodes,
-                                    Metric::CollisionChecks, Metric::PathChecks, Metric::UsPerCheck,
+                                    Metric::CollisionChecks, Metric::BodyChecks, Metric::PathChecks, Metric::UsPerCheck,
                                     Metric::PathNodes,     Metric::Switches,          Metric::MultiJointEdges,
                                     Metric::ExecS,         Metric::SimplifiedPathNodes, Metric::SimplifiedSwitches,
                                     Metric::SimplifiedExecS,     Metric::OurSmoothingSwitches,
@@ -654,8 +666,10 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
           verdict(limcon.simplified.switches == 0.0 ? connect.simplified.switches > 0.0 : fewer >= 5.0) +
           " (OMPL's raw paths through our smooth_path instead: " + fixed(connect.our_smoothing.switches, 2) +
           " switches). Both queries are bound by collision checks (rows above): `limcon` checks " +
-          fixed(limcon.mean_collision_checks, 0) + " configurations per query and validating its raw path alone takes " +
-          fixed(limcon.mean_path_checks, 0) + "; RRTConnect checks " + fixed(connect.mean_collision_checks, 0) + ".\n";
+          fixed(limcon.mean_collision_checks, 0) + " configurations per query (" + fixed(limcon.mean_body_checks, 0) +
+          " bodies against the site) and validating its raw path alone takes " + fixed(limcon.mean_path_checks, 0) +
+          "; RRTConnect checks " + fixed(connect.mean_collision_checks, 0) + " (" + fixed(connect.mean_body_checks, 0) +
+          " bodies).\n";
   }
   std::printf("%s\n", md.c_str());
   write_suite_files(options, suite, command, md, log);

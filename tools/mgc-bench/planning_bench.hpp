@@ -59,6 +59,9 @@ struct RunRecord {
   int tree_nodes = 0;
   int planner_data_vertices = 0;  //!< OMPL only: every PlannerData vertex (BIT*: unconnected samples too)
   std::uint64_t collision_checks = 0;  //!< configurations checked for collision by the query
+  //! Machine bodies checked against the static site by the query (CollisionWorld::body_checks:
+  //! a body at a pose it was already checked at reuses that result).
+  std::uint64_t body_checks = 0;
   //! Checks validate_edge makes on the raw path alone at the problem's step: a floor under any
   //! planner's checks for that path.
   std::uint64_t path_checks = 0;
@@ -132,6 +135,7 @@ struct Summary {
   std::vector<double> times_ms;  //!< successful runs
   double mean_tree_nodes = 0.0;
   double mean_collision_checks = 0.0;
+  double mean_body_checks = 0.0;
   double mean_path_checks = 0.0;
   std::vector<double> us_per_check;  //!< planning time per collision check, successful runs [us]
   QualityMean raw;
@@ -150,7 +154,7 @@ struct Summary {
 
 //! Rows a planning table can show.
 enum class Metric : std::uint8_t {
-  Success, MedianMs, P95Ms, P99Ms, MeanMs, MinMs, MaxMs, SdMs, TreeNodes, CollisionChecks, PathChecks, UsPerCheck,
+  Success, MedianMs, P95Ms, P99Ms, MeanMs, MinMs, MaxMs, SdMs, TreeNodes, CollisionChecks, BodyChecks, PathChecks, UsPerCheck,
   PathNodes, Switches, MultiJointEdges, ExecS, Roughness, Cost,
   SimplifiedPathNodes, SimplifiedSwitches, SimplifiedExecS, SimplifiedRoughness, SimplifiedCost,
   OurSmoothingSwitches, OurSmoothingExecS,
