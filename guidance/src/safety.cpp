@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace mgc::guidance {
 namespace {
@@ -52,6 +53,62 @@ StopCheck::StopCheck(planning::CollisionWorld& world, Envelope* envelope, const 
     }
     fixed_static_ = world_.clearance(q, planning::CollisionWorld::Bodies::Fixed, planning::CollisionWorld::Obstacles::Static);
   }
+}
+
+StopCheck::Sample StopCheck::measure_full(const planning::JointVector& q, double reach_m) noexcept {
+  ++full_queries_;
+  Sample s;
+  s.contact = world_.clearance(q, config_.fixed_bodies_once ? planning::CollisionWorld::Bodies::Moving
+                                                            : planning::CollisionWorld::Bodies::All);
+  s.clearance_m = s.contact.distance_m;
+  if (s.contact.with == planning::Contact::With::Dynamic) s.clearance_m -= reach_m;
+  return s;
+}
+
+StopCheck::Sample StopCheck::measure(const planning::JointVector& q, bool bounded, double bound_m, double reach_m) noexcept {
+  if (!bounded) return measure_full(q, reach_m);
+  using planning::Contact;
+  using Bodies = planning::CollisionWorld::Bodies;
+  // Within this of contact the bounded query's GJK distance and the full query's collision pass may
+  // disagree; the full query decides (and names the contact as it does).
+  constexpr double kContactM = 1e-3;
+  // clearance() takes the nearest obstacle and only then lessens a dynamic one by its reach; so a
+  // dynamic obstacle matters out to the bound plus its reach.
+  const planning::CollisionWorld::NearestBelow near =
+      world_.nearest_below(q, Bodies::Moving, bound_m, world_.num_dynamic() > 0 ? bound_m + reach_m : 0.0, &hint_);
+  const planning::Clearance& st = near.static_obstacle;
+  const planning::Clearance& dy = near.dynamic_obstacle;
+  if (st.with == Contact::With::Self || st.distance_m < kContactM ||
+      (dy.with == Contact::With::Dynamic && dy.distance_m < kContactM)) {
+    return measure_full(q, reach_m);
+  }
+  if (st.with == Contact::With::Static) hint_.static_obstacle = st;
+  if (dy.with == Contact::With::Dynamic) hint_.dynamic_obstacle = dy;
+  Sample s;
+  if (dy.with == Contact::With::Dynamic) {
+    bool dynamic_nearest = st.with == Contact::With::Static ? dy.distance_m < st.distance_m : dy.distance_m < bound_m;
+    if (!dynamic_nearest && st.with != Contact::With::Static) {
+      // The dynamic obstacle lies beyond the bound, within its reach of it: it is the nearest unless
+      // a static obstacle is nearer still.
+      const planning::Clearance nearer = world_.nearest_below(q, Bodies::Moving, dy.distance_m, 0.0, &hint_).static_obstacle;
+      if (nearer.with == Contact::With::Static) {
+        hint_.static_obstacle = nearer;
+        s.contact = nearer;
+        s.clearance_m = nearer.distance_m;
+        return s;
+      }
+      dynamic_nearest = true;
+    }
+    if (dynamic_nearest) {
+      s.contact = dy;
+      s.clearance_m = dy.distance_m - reach_m;
+      return s;
+    }
+  }
+  s.contact = st;  // a static obstacle within the bound, or none: then at least the bound
+  s.clearance_m = st.distance_m;
+  s.bounded = st.with != Contact::With::Static;
+  return s;
 }
 
 StopCheckResult StopCheck::check(const MachineState& state) noexcept {
@@ -104,19 +161,34 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
     fixed_m = fixed.distance_m;
     if (fixed.with == planning::Contact::With::Dynamic) fixed_m -= dynamic_reach_m;
   }
+  // Bounded queries (StopCheckConfig::bounded_queries): a sample at time t is measured exactly only
+  // below bound = headroom + rate (T - t); at or above it the sample counts as the bound. Then
+  //  - the steps are the full sweep's: from a value v >= bound the step (v - warning) / rate reaches
+  //    the end of the stop whatever v is, as headroom >= warning;
+  //  - an interval bound is the full sweep's wherever either is under exact_m, because headroom
+  //    >= 2 exact_m - warning and >= exact_m + the finest step's travel: next to a bounded end the
+  //    interval bound is either at least exact_m or the other, exact, end's value (see
+  //    docs/safety.md). Should rounding ever break that, the bounded end is measured in full.
+  // A contact of the fixed bodies makes every full query 0, so then every sample is measured in full.
+  const double exact_m = std::max(config_.warning_margin_m, config_.exact_clearance_m);
+  const double headroom_m = std::max(2.0 * exact_m - config_.warning_margin_m, exact_m + rate_m_s * min_dt_s);
+  const bool bounded = config_.bounded_queries && config_.fixed_bodies_once && fixed.distance_m >= 1e-3;
+  full_queries_ = 0;
+  const auto at_time = [&](double time_s, planning::JointVector& out) {
+    for (int j = 0; j < n; ++j) out[j] = profiles_[static_cast<std::size_t>(j)].at_time(time_s).position;
+  };
   double t_s = 0.0;
-  double prev_clearance_m = 0.0;
+  Sample prev;
   double prev_envelope_m = 0.0;
-  planning::Clearance prev_contact;
   EnvelopeDistance prev_limit;
   double prev_t_s = 0.0;
   r.min_clearance_m = kFar;
   double min_envelope_m = kFar;
   for (;;) {
-    for (int j = 0; j < n; ++j) q[j] = profiles_[static_cast<std::size_t>(j)].at_time(t_s).position;
-    const planning::Clearance c = world_.clearance(q, config_.fixed_bodies_once ? Bodies::Moving : Bodies::All);
-    double clearance_m = c.distance_m;
-    if (c.with == planning::Contact::With::Dynamic) clearance_m -= dynamic_reach_m;
+    at_time(t_s, q);
+    // A hair over the threshold, so that a bounded value steps to the end despite rounding.
+    const double bound_m = headroom_m + rate_m_s * (r.stop_duration_s - t_s) + 1e-6;
+    Sample cur = measure(q, bounded, bound_m, dynamic_reach_m);
     EnvelopeDistance limit;
     double envelope_m = kFar;
     if (envelope_ != nullptr) {
@@ -127,18 +199,33 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
 
     // Least clearance over the interval since the previous sample: both ends can only fall at
     // rate_m_s, so the two falling lines meet at (d0 + d1 - rate h) / 2.
-    double bound_m = clearance_m;
+    double lowest_m = cur.clearance_m;
     double envelope_bound_m = envelope_m;
     const bool interval = r.samples > 1;
     if (interval) {
       const double travel_m = rate_m_s * (t_s - prev_t_s);
-      bound_m = std::min({prev_clearance_m, clearance_m, 0.5 * (prev_clearance_m + clearance_m - travel_m)});
+      const auto interval_bound = [&] {
+        return std::min({prev.clearance_m, cur.clearance_m, 0.5 * (prev.clearance_m + cur.clearance_m - travel_m)});
+      };
+      lowest_m = interval_bound();
+      const double exact_end_m = std::min(prev.bounded ? kFar : prev.clearance_m, cur.bounded ? kFar : cur.clearance_m);
+      if ((prev.bounded || cur.bounded) && lowest_m < exact_m && lowest_m < exact_end_m) {
+        // The bound matters and rests on a bounded end: measure it in full. The steps stay as they
+        // were (a full value is at least the bounded one, and that already reached the end).
+        if (cur.bounded) cur = measure_full(q, dynamic_reach_m);
+        if (prev.bounded) {
+          at_time(prev_t_s, q);
+          prev = measure_full(q, dynamic_reach_m);
+          at_time(t_s, q);
+        }
+        lowest_m = interval_bound();
+      }
       envelope_bound_m = std::min({prev_envelope_m, envelope_m, 0.5 * (prev_envelope_m + envelope_m - travel_m)});
     }
-    if (bound_m < r.min_clearance_m) {
-      r.min_clearance_m = bound_m;
-      const bool earlier = interval && prev_clearance_m < clearance_m;
-      r.nearest = earlier ? prev_contact : c;
+    if (lowest_m < r.min_clearance_m) {
+      r.min_clearance_m = lowest_m;
+      const bool earlier = interval && prev.clearance_m < cur.clearance_m;
+      r.nearest = earlier ? prev.contact : cur.contact;
       r.nearest_time_s = earlier ? prev_t_s : t_s;
     }
     if (!interval && fixed_m < r.min_clearance_m) {
@@ -155,9 +242,9 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
     if (r.min_clearance_m < config_.stop_margin_m || min_envelope_m < -config_.envelope_stop_margin_m) break;
     if (t_s >= r.stop_duration_s) break;
 
-    prev_clearance_m = clearance_m;
+    const double clearance_m = cur.clearance_m;
+    prev = cur;
     prev_envelope_m = envelope_m;
-    prev_contact = c;
     prev_limit = limit;
     prev_t_s = t_s;
     double dt_s = min_dt_s;

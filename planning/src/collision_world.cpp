@@ -223,6 +223,97 @@ bool same_bits(const Eigen::DenseBase<Derived>& a, const Eigen::DenseBase<Derive
   return std::memcmp(a.derived().data(), b.derived().data(), sizeof(double) * Derived::SizeAtCompileTime) == 0;
 }
 
+// Squared Euclidean distance between two AABBs (FCL's AABB::distance without the root). [m^2]
+inline double aabb_distance_sq(const fcl::AABBd& a, const fcl::AABBd& b) noexcept {
+  double sum = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    double gap = a.min_[i] - b.max_[i];
+    if (gap <= 0.0) gap = b.min_[i] - a.max_[i];
+    if (gap > 0.0) sum += gap * gap;
+  }
+  return sum;
+}
+
+// One body's search for its nearest obstacle below a bound (CollisionWorld::nearest_below).
+struct BoundedSearch {
+  const CollisionObject* body = nullptr;
+  fcl::AABBd body_aabb;
+  BoxBounds body_box;
+  bool body_has_box = false;
+  Eigen::Matrix3d body_rotation_t;  //!< transpose of the body's rotation
+  Eigen::Vector3d body_centre;
+  const fcl::DistanceRequestd* request = nullptr;
+  fcl::DistanceResultd* result = nullptr;
+  double best = 0.0;  //!< the bound, then the least distance found [m]
+  int nearest = -1;   //!< obstacle index, -1: none below the bound
+  const CollisionObject* skip = nullptr;  //!< the hint's obstacle, already measured
+
+  void start(const CollisionObject* b) noexcept {
+    body = b;
+    body_aabb = b->getAABB();
+    body_has_box = box_bounds(b, body_box);
+    body_rotation_t = b->getTransform().linear().transpose();
+    body_centre = b->getTransform().translation();
+    nearest = -1;
+  }
+
+  // Whether the body's box grown by best misses the axis-aligned box `box` along one of the body's
+  // own axes (so every point of the box is at least best from the body): the first three axes of
+  // the separating-axis test, which is all a long boom needs against the frame's subtrees.
+  [[nodiscard]] bool box_apart(const fcl::AABBd& box) const noexcept {
+    if (!body_has_box || !std::isfinite(best)) return false;
+    const Eigen::Vector3d offset = 0.5 * (box.min_ + box.max_) - body_centre;
+    const Eigen::Vector3d half = 0.5 * (box.max_ - box.min_);
+    for (int i = 0; i < 3; ++i) {
+      const auto axis = body_rotation_t.row(i);
+      const double reach = body_box.outer[i] + best + axis.cwiseAbs().dot(half.transpose());
+      if (std::abs(axis.dot(offset.transpose())) > reach) return true;
+    }
+    return false;
+  }
+
+  // Measures one body-obstacle pair unless its bounding volumes show it no nearer than best.
+  // obstacle_first: FCL's argument order as clearance() has it (the broad phase passes the
+  // obstacle first, the dynamic parts are measured body first), so the distances are the same.
+  void measure(const CollisionObject* obstacle, const fcl::AABBd& obstacle_aabb, int index, bool obstacle_first) noexcept {
+    if (best <= 0.0 || obstacle == skip) return;
+    if (aabb_distance_sq(body_aabb, obstacle_aabb) >= best * best) return;
+    if (box_apart(obstacle_aabb)) return;
+    BoxBounds bounds;
+    if (body_has_box && std::isfinite(best) && box_bounds(obstacle, bounds)) {
+      // The body's box grown by best on every side holds every point within best of the body.
+      if (!boxes_overlap(body, body_box.outer + Eigen::Vector3d::Constant(best), obstacle, bounds.outer)) return;
+    }
+    result->clear();
+    if (obstacle_first) {
+      fcl::distance(obstacle, body, *request, *result);
+    } else {
+      fcl::distance(body, obstacle, *request, *result);
+    }
+    const double d = std::max(0.0, result->min_distance);
+    if (d < best) {
+      best = d;
+      nearest = index;
+    }
+  }
+
+  // The broad phase's tree, nearer child first; subtrees whose AABB is no nearer than best skipped.
+  void search(const fcl::detail::NodeBase<fcl::AABBd>* node) noexcept {
+    if (best <= 0.0) return;
+    if (node->isLeaf()) {
+      const auto* obstacle = static_cast<const CollisionObject*>(node->data);
+      measure(obstacle, node->bv, decode_index(obstacle->getUserData()), true);
+      return;
+    }
+    if (box_apart(node->bv)) return;
+    const double d0 = aabb_distance_sq(body_aabb, node->children[0]->bv);
+    const double d1 = aabb_distance_sq(body_aabb, node->children[1]->bv);
+    const int first = d1 < d0 ? 1 : 0;
+    if (std::min(d0, d1) < best * best) search(node->children[first]);
+    if (std::max(d0, d1) < best * best) search(node->children[1 - first]);
+  }
+};
+
 }  // namespace
 
 struct CollisionWorld::Impl {
@@ -670,6 +761,83 @@ Clearance CollisionWorld::clearance(const JointVector& q, Bodies bodies, Obstacl
     }
   }
   return c;
+}
+
+CollisionWorld::NearestBelow CollisionWorld::nearest_below(const JointVector& q, Bodies bodies, double static_bound_m,
+                                                          double dynamic_bound_m, const NearestBelow* hint) noexcept {
+  pose_machine(q);
+  auto& impl = *impl_;
+  NearestBelow out;
+  out.static_obstacle.distance_m = std::max(0.0, static_bound_m);
+  out.dynamic_obstacle.distance_m = std::max(0.0, dynamic_bound_m);
+  if (bodies != Bodies::Fixed) {
+    for (const SelfPair& pair : model_.self_pairs()) {
+      CollisionObject* a = impl.bodies[static_cast<std::size_t>(pair.body_a)].object.get();
+      CollisionObject* b = impl.bodies[static_cast<std::size_t>(pair.body_b)].object.get();
+      if (!a->getAABB().overlap(b->getAABB())) continue;
+      if (intersects(a, b, impl.collision_request, impl.collision_result)) {
+        out.static_obstacle = {0.0, pair.body_a, Contact::With::Self, pair.body_b};
+        out.dynamic_obstacle = out.static_obstacle;
+        return out;
+      }
+    }
+  }
+  const auto chosen = [&](int b) {
+    return b >= 0 && b < static_cast<int>(impl.bodies.size()) &&
+           (bodies == Bodies::All || (impl.body_moves[static_cast<std::size_t>(b)] != 0) == (bodies == Bodies::Moving));
+  };
+  BoundedSearch s;
+  s.request = &impl.distance_request;
+  s.result = &impl.distance_result;
+  const auto take = [&](int b, Contact::With with, Clearance& into) {
+    if (s.nearest >= 0) into = {s.best, b, with, s.nearest};
+  };
+  const auto* root = impl.manager.getTree().getRoot();
+
+  // Static obstacles: the hinted pair first, then every chosen body's search from the best so far.
+  if (static_bound_m > 0.0 && root != nullptr) {
+    s.best = static_bound_m;
+    const Clearance* h = hint != nullptr ? &hint->static_obstacle : nullptr;
+    const CollisionObject* hinted = nullptr;
+    if (h != nullptr && h->with == Contact::With::Static && chosen(h->body) && h->other >= 0 &&
+        h->other < static_cast<int>(impl.statics.size())) {
+      hinted = impl.statics[static_cast<std::size_t>(h->other)].get();
+      s.start(impl.bodies[static_cast<std::size_t>(h->body)].object.get());
+      s.measure(hinted, hinted->getAABB(), h->other, true);
+      take(h->body, Contact::With::Static, out.static_obstacle);
+    }
+    for (int b = 0; b < static_cast<int>(impl.bodies.size()) && s.best > 0.0; ++b) {
+      if (!chosen(b)) continue;
+      s.start(impl.bodies[static_cast<std::size_t>(b)].object.get());
+      s.skip = h != nullptr && h->body == b ? hinted : nullptr;
+      s.search(root);
+      s.skip = nullptr;
+      take(b, Contact::With::Static, out.static_obstacle);
+    }
+  }
+  // Dynamic obstacles: few parts, each pair behind the same bounding-volume tests.
+  if (dynamic_bound_m > 0.0 && !impl.dynamics.empty()) {
+    s.best = dynamic_bound_m;
+    const auto measure_dynamic = [&](int d) {
+      for (auto& part : impl.dynamics[static_cast<std::size_t>(d)].parts) {
+        s.measure(part.object.get(), part.object->getAABB(), d, false);
+      }
+    };
+    const Clearance* h = hint != nullptr ? &hint->dynamic_obstacle : nullptr;
+    if (h != nullptr && h->with == Contact::With::Dynamic && chosen(h->body) && h->other >= 0 &&
+        h->other < static_cast<int>(impl.dynamics.size())) {
+      s.start(impl.bodies[static_cast<std::size_t>(h->body)].object.get());
+      measure_dynamic(h->other);
+      take(h->body, Contact::With::Dynamic, out.dynamic_obstacle);
+    }
+    for (int b = 0; b < static_cast<int>(impl.bodies.size()) && s.best > 0.0; ++b) {
+      if (!chosen(b)) continue;
+      s.start(impl.bodies[static_cast<std::size_t>(b)].object.get());
+      for (int d = 0; d < static_cast<int>(impl.dynamics.size()); ++d) measure_dynamic(d);
+      take(b, Contact::With::Dynamic, out.dynamic_obstacle);
+    }
+  }
+  return out;
 }
 
 std::string CollisionWorld::describe(const Contact& contact) const {

@@ -58,3 +58,37 @@ TEST_CASE("envelope, rated capacity limiter and stop check do not allocate", "[u
   CHECK(mgc::test::allocation_count() == before);
   CHECK(std::isfinite(sink));
 }
+
+TEST_CASE("stop check with bounded queries does not allocate by the frame or by crane-2", "[unit]") {
+  ThesisCrane t;
+  planning::CollisionWorld& world = *t.loaded.world;
+  StopCheck check(world, nullptr, StopCheckConfig{});
+  const Eigen::Isometry3d home = world.dynamic_pose(0);
+  const auto slewing = [](double swing_deg, double velocity_deg_s, double elevation_deg, double cable_m) {
+    MachineState s;
+    s.joints[0] = {swing_deg * kDeg, velocity_deg_s * kDeg, 0.0};
+    s.joints[1] = {elevation_deg * kDeg, 0.0, 0.0};
+    s.joints[2] = {20.0, 0.0, 0.0};
+    s.joints[3] = {cable_m, 0.0, 0.0};
+    return s;
+  };
+
+  double sink = 0.0;
+  int stops = 0;
+  const long before = mgc::test::allocation_count();
+  for (int i = 0; i < 40; ++i) {
+    // Toward the frame from 64 deg to 56 deg (warning, stop, the boom in a column), and crane-2's
+    // load brought to 2-6 m south of ours at swing 180 deg.
+    const StopCheckResult near_frame = check.check(slewing(64.0 - 0.2 * i, -3.75, 25.0 + 0.1 * i, 2.0 + 0.1 * i));
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(-18.1 - 18.38, -2.0 - 0.1 * i, 7.0 - 5.38);
+    world.set_dynamic_pose(0, pose);
+    const StopCheckResult near_crane2 = check.check(slewing(180.0, 3.75, 25.0, 2.0));
+    world.set_dynamic_pose(0, home);
+    sink += near_frame.min_clearance_m + near_crane2.min_clearance_m;
+    stops += (near_frame.status == StopCheckStatus::Stop) + (near_crane2.status == StopCheckStatus::Stop);
+  }
+  CHECK(mgc::test::allocation_count() == before);
+  CHECK(stops > 0);
+  CHECK(std::isfinite(sink));
+}

@@ -68,6 +68,11 @@ int run_safety_suite(const SafetyBenchOptions& options) {
   guidance::StopCheckConfig all_bodies;
   all_bodies.fixed_bodies_once = false;
   guidance::StopCheck check_all(*loaded.world, nullptr, all_bodies);
+  // The default check measuring the nearest obstacle in full at every sample, as it did before the
+  // bounded queries: what those save, in the same run.
+  guidance::StopCheckConfig all_distance;
+  all_distance.bounded_queries = false;
+  guidance::StopCheck check_full(*loaded.world, nullptr, all_distance);
   std::vector<Row> rows;
 
   const auto stop_case = [&](guidance::StopCheck& c, const std::string& what, const guidance::MachineState& s) {
@@ -80,8 +85,11 @@ int run_safety_suite(const SafetyBenchOptions& options) {
       {"at rest at swing 80 deg", state(80, 0)},
       {"full slew away from the frame (80 deg)", state(80, kFullSlewDegS)},
       {"full slew toward the frame (62 deg)", state(62, -kFullSlewDegS)},
+      {"full slew toward the frame (61 deg)", state(61, -kFullSlewDegS)},
+      {"half slew toward the frame (61 deg)", state(61, -0.5 * kFullSlewDegS)},
   };
   for (const auto& [what, s] : stop_states) stop_case(check, std::string("stop check, ") + what, s);
+  for (const auto& [what, s] : stop_states) stop_case(check_full, std::string("stop check, all-distance sweep, ") + what, s);
   for (const auto& [what, s] : stop_states) stop_case(check_all, std::string("stop check, every body sampled, ") + what, s);
 
   guidance::RatedCapacityLimiter rcl(crane, guidance::RatedCapacityConfig{});

@@ -45,6 +45,20 @@ struct StopCheckConfig {
   //! the stopping motion cannot move them, so only the moving bodies' clearance sets the step. Off
   //! only to compare against the all-bodies sweep (mgc-bench --suite safety).
   bool fixed_bodies_once = true;
+  //! Measure each sample only as far as the outcome needs (CollisionWorld::nearest_below): at time t
+  //! a sample's clearance is measured exactly only below a bound, max(2 E - warning_margin_m, E + the
+  //! finest step's travel) + (body travel from t to the end of the stop), E = max(warning_margin_m,
+  //! exact_clearance_m); at or above it the step reaches the end of the stop whatever the exact
+  //! value. So the samples, the status and the speed scale are those of the all-distance sweep (the
+  //! nearest obstacle measured in full at every sample, as with this off), and so are min_clearance_m,
+  //! nearest and nearest_time_s when min_clearance_m is below E; equal up to GJK's tolerance (1e-6 m)
+  //! where two obstacles are about equally near. Needs fixed_bodies_once; off only to compare
+  //! (mgc-bench --suite safety, tests/safety/stop_check_fast_test.cpp). docs/safety.md.
+  bool bounded_queries = true;
+  //! With bounded_queries: min_clearance_m, nearest and nearest_time_s are exact below this (or below
+  //! the warning margin, if larger); when the exact least clearance is at or above it, min_clearance_m
+  //! may be any value from it up to the exact one and nearest may name nothing (With::Nothing). [m]
+  double exact_clearance_m = 2.0;
 };
 
 //! The machine's current state, one entry per joint (positions in the joint's unit).
@@ -60,9 +74,13 @@ struct StopCheckResult {
   planning::JointVector stop_position;  //!< where the machine comes to rest
   //! Least clearance along the stop, conservative: between two samples d0, d1 a distance h of
   //! body travel apart, (d0 + d1 - h) / 2; dynamic obstacles less their reach during the stop. On
-  //! Stop the sweep ends at the first interval under the stop margin, so this is that interval's. [m]
+  //! Stop the sweep ends at the first interval under the stop margin, so this is that interval's.
+  //! With bounded_queries, exact below max(warning margin, exact_clearance_m); at or above that a
+  //! lower bound of the exact value, itself at least that (StopCheckConfig::exact_clearance_m). [m]
   double min_clearance_m = 0.0;
-  planning::Clearance nearest;    //!< what is nearest at that sample
+  //! What is nearest at that sample (With::Nothing: with bounded_queries, nothing within the
+  //! sample's bound there, only when min_clearance_m is at least exact_clearance_m).
+  planning::Clearance nearest;
   double nearest_time_s = 0.0;    //!< [s] into the stop
   EnvelopeDistance envelope;      //!< least envelope distance along the stop (None: no envelope)
   int samples = 0;                //!< configurations checked
@@ -75,7 +93,8 @@ struct StopCheckResult {
 //! sample_step_m between samples (the model's displacement bounds times each joint's peak speed in
 //! the stop) where the clearance is near the warning margin, and further apart where it is large
 //! (conservative advancement); each sample's clearance to the static and dynamic obstacles (at the
-//! poses the caller set this cycle) and, if given, its envelope distance. RT-safe after construction: no allocation,
+//! poses the caller set this cycle; measured only as far as the outcome needs, bounded_queries) and,
+//! if given, its envelope distance. RT-safe after construction: no allocation,
 //! no throw. Not thread-safe (it poses the world's machine).
 class StopCheck {
  public:
@@ -91,8 +110,21 @@ class StopCheck {
   void set_dynamic_obstacle_speed(double speed_m_s) noexcept { config_.dynamic_obstacle_speed_m_s = speed_m_s; }
   //! The braking profile of joint j from the last check.
   [[nodiscard]] const Profile& stop_profile(int j) const noexcept { return profiles_[static_cast<std::size_t>(j)]; }
+  //! Full clearance queries (CollisionWorld::clearance) the last check made: with bounded_queries
+  //! only at a sample within 1 mm of contact (then the check stops), or should a bounded value ever
+  //! need making exact (by the bound's choice it does not, short of rounding); without, every sample.
+  [[nodiscard]] int full_queries() const noexcept { return full_queries_; }
 
  private:
+  //! One sample's clearance as the sweep uses it: a dynamic obstacle's less its reach.
+  struct Sample {
+    planning::Clearance contact;
+    double clearance_m = 0.0;
+    bool bounded = false;  //!< only known to be at least clearance_m (nothing nearer than the bound)
+  };
+  [[nodiscard]] Sample measure(const planning::JointVector& q, bool bounded, double bound_m, double reach_m) noexcept;
+  [[nodiscard]] Sample measure_full(const planning::JointVector& q, double reach_m) noexcept;
+
   planning::CollisionWorld& world_;
   Envelope* envelope_;
   StopCheckConfig config_;
@@ -100,6 +132,9 @@ class StopCheck {
   planning::Clearance fixed_static_;
   std::array<JointLimits, kMaxJoints> limits_{};
   std::array<Profile, kMaxJoints> profiles_{};
+  //! The last nearest static and dynamic obstacle: measured first at the next sample or check.
+  planning::CollisionWorld::NearestBelow hint_;
+  int full_queries_ = 0;
 };
 
 }  // namespace mgc::guidance

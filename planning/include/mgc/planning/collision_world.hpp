@@ -103,6 +103,25 @@ class CollisionWorld {
   //! finalize(): callers may measure it once.
   [[nodiscard]] Clearance clearance(const JointVector& q, Bodies bodies = Bodies::All,
                                     Obstacles obstacles = Obstacles::All) noexcept;
+  //! The nearest static and the nearest dynamic obstacle of the chosen bodies, each only when nearer
+  //! than its bound.
+  struct NearestBelow {
+    Clearance static_obstacle;   //!< With::Static; or With::Nothing and distance_m = the static bound
+    Clearance dynamic_obstacle;  //!< With::Dynamic; or With::Nothing and distance_m = the dynamic bound
+  };
+  //! clearance(q, bodies, Obstacles::Static) and (..., Obstacles::Dynamic) for a caller that needs them
+  //! only below bounds (the stop check, every control cycle; a bound <= 0 skips that kind). Below its
+  //! bound a distance is clearance()'s (the same FCL query on the same pair; where two obstacles tie
+  //! either may be named), found without the broad phase's full distance pass: the machine is posed
+  //! once, and subtrees and pairs whose AABBs, or boxes round them and the body's box grown by the best
+  //! distance so far, are no nearer than that best are never measured; so the lower the bounds the less
+  //! is measured. hint (e.g. the previous call's result) names pairs measured first to start with a low
+  //! best; it changes only the cost. No collision pass first: a chosen body in contact with an obstacle
+  //! gives 0 with that obstacle, and (bodies All or Moving) two bodies of a self pair in contact give 0
+  //! with With::Self in both results; a fixed body's contact does not count for Moving. RT-safe after
+  //! finalize() (a mesh obstacle within a bound goes through FCL's mesh path).
+  [[nodiscard]] NearestBelow nearest_below(const JointVector& q, Bodies bodies, double static_bound_m,
+                                           double dynamic_bound_m, const NearestBelow* hint = nullptr) noexcept;
   //! Whether body i moves with the joints: found at construction by posing the machine at the
   //! middle of every joint range and at each joint's limits; a body identical in all is fixed.
   [[nodiscard]] bool body_moves(int body) const noexcept;
