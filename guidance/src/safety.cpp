@@ -156,7 +156,11 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
   planning::Clearance fixed;
   if (config_.fixed_bodies_once) {
     for (int j = 0; j < n; ++j) q[j] = state.joints[static_cast<std::size_t>(j)].position;
-    const planning::Clearance dynamic = world_.clearance(q, Bodies::Fixed, planning::CollisionWorld::Obstacles::Dynamic);
+    // Only a dynamic obstacle nearer than the static site matters; bounded, the rest go unmeasured.
+    const planning::Clearance dynamic =
+        config_.bounded_queries
+            ? world_.nearest_below(q, Bodies::Fixed, 0.0, fixed_static_.distance_m).dynamic_obstacle
+            : world_.clearance(q, Bodies::Fixed, planning::CollisionWorld::Obstacles::Dynamic);
     fixed = dynamic.distance_m < fixed_static_.distance_m ? dynamic : fixed_static_;
     fixed_m = fixed.distance_m;
     if (fixed.with == planning::Contact::With::Dynamic) fixed_m -= dynamic_reach_m;
