@@ -57,11 +57,23 @@ StopCheck::StopCheck(planning::CollisionWorld& world, Envelope* envelope, const 
 
 StopCheck::Sample StopCheck::measure_full(const planning::JointVector& q, double reach_m) noexcept {
   ++full_queries_;
+  using Bodies = planning::CollisionWorld::Bodies;
+  using Obstacles = planning::CollisionWorld::Obstacles;
+  const Bodies bodies = config_.fixed_bodies_once ? Bodies::Moving : Bodies::All;
+  // A dynamic obstacle counts less its reach during the stop, so it may matter more than a static
+  // one that is nearer: each kind is measured, and the lesser clearance taken.
   Sample s;
-  s.contact = world_.clearance(q, config_.fixed_bodies_once ? planning::CollisionWorld::Bodies::Moving
-                                                            : planning::CollisionWorld::Bodies::All);
+  s.contact = world_.clearance(q, bodies, Obstacles::Static);
   s.clearance_m = s.contact.distance_m;
   if (s.contact.with == planning::Contact::With::Dynamic) s.clearance_m -= reach_m;
+  if (world_.num_dynamic() > 0 && s.clearance_m > 0.0) {
+    const planning::Clearance dynamic = world_.clearance(q, bodies, Obstacles::Dynamic);
+    const double dynamic_m = dynamic.with == planning::Contact::With::Dynamic ? dynamic.distance_m - reach_m : dynamic.distance_m;
+    if (dynamic_m < s.clearance_m) {
+      s.contact = dynamic;
+      s.clearance_m = dynamic_m;
+    }
+  }
   return s;
 }
 
@@ -84,30 +96,16 @@ StopCheck::Sample StopCheck::measure(const planning::JointVector& q, bool bounde
   }
   if (st.with == Contact::With::Static) hint_.static_obstacle = st;
   if (dy.with == Contact::With::Dynamic) hint_.dynamic_obstacle = dy;
+  // A dynamic obstacle counts less its reach during the stop: the lesser of the two clearances.
   Sample s;
-  if (dy.with == Contact::With::Dynamic) {
-    bool dynamic_nearest = st.with == Contact::With::Static ? dy.distance_m < st.distance_m : dy.distance_m < bound_m;
-    if (!dynamic_nearest && st.with != Contact::With::Static) {
-      // The dynamic obstacle lies beyond the bound, within its reach of it: it is the nearest unless
-      // a static obstacle is nearer still.
-      const planning::Clearance nearer = world_.nearest_below(q, Bodies::Moving, dy.distance_m, 0.0, &hint_).static_obstacle;
-      if (nearer.with == Contact::With::Static) {
-        hint_.static_obstacle = nearer;
-        s.contact = nearer;
-        s.clearance_m = nearer.distance_m;
-        return s;
-      }
-      dynamic_nearest = true;
-    }
-    if (dynamic_nearest) {
-      s.contact = dy;
-      s.clearance_m = dy.distance_m - reach_m;
-      return s;
-    }
-  }
   s.contact = st;  // a static obstacle within the bound, or none: then at least the bound
-  s.clearance_m = st.distance_m;
+  s.clearance_m = st.with == Contact::With::Static ? st.distance_m : bound_m;
   s.bounded = st.with != Contact::With::Static;
+  if (dy.with == Contact::With::Dynamic && dy.distance_m - reach_m < s.clearance_m) {
+    s.contact = dy;
+    s.clearance_m = dy.distance_m - reach_m;
+    s.bounded = false;
+  }
   return s;
 }
 
@@ -156,14 +154,18 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
   planning::Clearance fixed;
   if (config_.fixed_bodies_once) {
     for (int j = 0; j < n; ++j) q[j] = state.joints[static_cast<std::size_t>(j)].position;
-    // Only a dynamic obstacle nearer than the static site matters; bounded, the rest go unmeasured.
+    // Only a dynamic obstacle nearer, less its reach, than the static site matters; bounded, the
+    // rest go unmeasured.
     const planning::Clearance dynamic =
         config_.bounded_queries
-            ? world_.nearest_below(q, Bodies::Fixed, 0.0, fixed_static_.distance_m).dynamic_obstacle
+            ? world_.nearest_below(q, Bodies::Fixed, 0.0, fixed_static_.distance_m + dynamic_reach_m).dynamic_obstacle
             : world_.clearance(q, Bodies::Fixed, planning::CollisionWorld::Obstacles::Dynamic);
-    fixed = dynamic.distance_m < fixed_static_.distance_m ? dynamic : fixed_static_;
-    fixed_m = fixed.distance_m;
-    if (fixed.with == planning::Contact::With::Dynamic) fixed_m -= dynamic_reach_m;
+    fixed = fixed_static_;
+    fixed_m = fixed_static_.distance_m;
+    if (dynamic.with == planning::Contact::With::Dynamic && dynamic.distance_m - dynamic_reach_m < fixed_m) {
+      fixed = dynamic;
+      fixed_m = dynamic.distance_m - dynamic_reach_m;
+    }
   }
   // Bounded queries (StopCheckConfig::bounded_queries): a sample at time t is measured exactly only
   // below bound = headroom + rate (T - t); at or above it the sample counts as the bound. Then

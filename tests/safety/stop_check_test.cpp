@@ -186,3 +186,37 @@ TEST_CASE("stop check: refused input is reported with the joint", "[unit]") {
   CHECK(r.replan);
   CHECK(r.speed_scale == 0.0);
 }
+
+TEST_CASE("stop check: a dynamic obstacle farther than the nearest static one still counts with its reach", "[unit]") {
+  ThesisCrane t;
+  planning::CollisionWorld& world = *t.loaded.world;
+  // Crane-2 parked beside our carrier, its carrier a few metres south of ours: farther than the
+  // frame is from our carrier (1.15 m), nearer than that once its reach over our 2.5 s stop counts.
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(-2.0, -5.5, 0.0);
+  world.set_dynamic_pose(0, pose);
+  StopCheckConfig still;
+  still.dynamic_obstacle_speed_m_s = 0.0;
+  StopCheck without(world, nullptr, still);
+  StopCheck with(world, nullptr, StopCheckConfig{});
+  StopCheckConfig full;
+  full.bounded_queries = false;
+  StopCheck with_full(world, nullptr, full);
+  const MachineState slewing = state(180, kFullSlewDegS);
+  const StopCheckResult a = without.check(slewing);
+  const StopCheckResult b = with.check(slewing);
+  const StopCheckResult c = with_full.check(slewing);
+  const double to_crane2_m =
+      world.clearance(ThesisCrane::q(180, 25, 20, 2), planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic)
+          .distance_m;
+  CAPTURE(a.min_clearance_m, b.min_clearance_m, c.min_clearance_m, b.stop_duration_s, to_crane2_m);
+  REQUIRE(to_crane2_m > 1.15);                        // farther than the frame from our carrier
+  REQUIRE(to_crane2_m - b.stop_duration_s < 0.5);     // but not with its reach
+  CHECK(a.status != StopCheckStatus::Stop);
+  CHECK(a.nearest.with == Contact::With::Static);
+  CHECK(b.status == StopCheckStatus::Stop);
+  CHECK(b.nearest.with == Contact::With::Dynamic);
+  CHECK(c.status == StopCheckStatus::Stop);
+  CHECK(c.nearest.with == Contact::With::Dynamic);
+  CHECK(b.min_clearance_m == Approx(c.min_clearance_m).margin(1e-6));
+}
