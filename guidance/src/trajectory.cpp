@@ -1,12 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
-// Time-optimal jerk-limited 1-DoF profiles to a rest target (docs/trajectory.md). Every profile of
-// the seven-phase family (Berscheid & Kröger, RSS 2021) is: a velocity change from the start state
-// to a peak velocity vp at zero acceleration, a cruise at vp (only at |vp| = max velocity), and a
-// velocity change from vp to rest. For a given vp both velocity changes are unique (and
-// time-optimal), so the family is one-parametric: the fastest member either cruises at ±vmax, or
-// has no cruise and a vp that solves D(vp) = distance. D is piecewise smooth in vp with known
-// breakpoints and square-root ends; each piece is searched for all roots after a smoothstep change
-// of variable that removes the square roots.
+// Time-optimal jerk-limited 1-DoF profiles to a rest target (docs/trajectory.md), in closed form per
+// profile type as in Ruckig (Berscheid & Kröger, RSS 2021). After the braking pre-phase the
+// time-optimal profile to rest has the jerk pattern UDDU (+J, plateau, -J, cruise, -J, plateau, +J,
+// J = ±j_max); each subset of reached limits leaves one unknown and a polynomial of degree <= 4,
+// whose real roots are all found, and the fastest valid profile wins.
 #include "mgc/guidance/trajectory.hpp"
 
 #include <algorithm>
@@ -52,153 +49,244 @@ JointState apply(const JointState& s, const VelocityChange& c) noexcept {
   return advance(advance(advance(s, c.jerk, c.t1), 0.0, c.t2), -c.jerk, c.t3);
 }
 
-//! The no-cruise family member with peak velocity vp: distance covered and duration.
-struct Member {
-  double distance = 0.0;  //!< [m]
-  double duration = 0.0;  //!< [s]
-};
+//! Real roots in [lo, hi] of c[0] + c[1] x + ... + c[n] x^n, n <= 6, ascending, written to out (room
+//! for n). Each root is isolated between consecutive critical points (the derivative's roots,
+//! found the same way) and polished by Newton steps kept inside its bracket, so clustered and
+//! nearly double roots are not lost to the cancellation of the closed-form quartic formulas.
+constexpr int kMaxDegree = 6;
 
-//! Which family a candidate belongs to.
-enum class Shape : std::uint8_t { PeakVelocity, EarlyTurn };
+double poly_eval(const double* c, int n, double x) noexcept {
+  double r = c[n];
+  for (int k = n - 1; k >= 0; --k) r = r * x + c[k];
+  return r;
+}
 
-struct Family {
-  static constexpr Shape kShape = Shape::PeakVelocity;
-  double v0, a0, a_max, j_max;
-
-  [[nodiscard]] Member at(double vp) const noexcept {
-    const VelocityChange c1 = velocity_change(v0, a0, vp, a_max, j_max);
-    const VelocityChange c2 = velocity_change(vp, 0.0, 0.0, a_max, j_max);
-    const JointState end = apply(apply({0.0, v0, a0}, c1), c2);
-    return {end.position, c1.t1 + c1.t2 + c1.t3 + c2.t1 + c2.t2 + c2.t3};
-  }
-};
-
-//! The profiles whose acceleration does not pass through zero before the stop (Ruckig's UDDU with
-//! an empty cruise and a first jerk phase too short to bring the acceleration to zero): from
-//! a0 != 0, jerk towards zero for t1 < |a0|/j_max, then the velocity change to rest, which drives
-//! the acceleration away from zero again and back. The peak-velocity family cannot hold them: it
-//! only splits a profile where the acceleration is zero. Parameter: t1 [s]. Only used when the
-//! velocity at zero acceleration keeps the sign it would stop from (v_az * a0 < 0), which makes the
-//! change to rest push the acceleration further the same way, so the velocity stays between v0 and 0.
-struct EarlyTurn {
-  static constexpr Shape kShape = Shape::EarlyTurn;
-  double v0, a0, a_max, j_max;
-
-  [[nodiscard]] Member at(double t1) const noexcept {
-    const JointState turn = advance({0.0, v0, a0}, a0 < 0.0 ? j_max : -j_max, t1);
-    const VelocityChange c = velocity_change(turn.velocity, turn.acceleration, 0.0, a_max, j_max);
-    const JointState end = apply(turn, c);
-    return {end.position, t1 + c.t1 + c.t2 + c.t3};
-  }
-};
-
-//! Peak velocity of piece [lo, hi] at u in [0, 1]: a smoothstep, so that square-root behaviour at
-//! either end becomes smooth in u.
-double piece_vp(double lo, double hi, double u) noexcept { return lo + (hi - lo) * (u * u * (3.0 - 2.0 * u)); }
-
-template <class F>
-struct PieceFunction {
-  const F* family;
-  double lo, hi, distance;
-  [[nodiscard]] double operator()(double u) const noexcept { return family->at(piece_vp(lo, hi, u)).distance - distance; }
-};
-
-//! Root of f in [ua, ub] where f(ua), f(ub) differ in sign: Illinois regula falsi with a bisection
-//! step whenever the bracket shrinks too slowly, to the last representable u.
-template <class F>
-double bracketed_root(const PieceFunction<F>& f, double ua, double fa, double ub, double fb) noexcept {
-  int side = 0;
-  for (int i = 0; i < 200; ++i) {
-    const double width = ub - ua;
-    double u = (fa * ub - fb * ua) / (fa - fb);
-    if (!(u > ua && u < ub) || i % 4 == 3) u = ua + width / 2.0;  // safeguard: bisection
-    if (u <= ua || u >= ub) break;                                 // no representable point left
-    const double fu = f(u);
-    if (fu == 0.0) return u;
-    if ((fu < 0.0) == (fa < 0.0)) {
-      ua = u;
-      fa = fu;
-      if (side == -1) fb /= 2.0;
-      side = -1;
+//! The root of c in [a, b], where the values at a (fa) and b differ in sign.
+double polish(const double* c, int n, double a, double fa, double b) noexcept {
+  double x = a + (b - a) / 2.0;
+  for (int it = 0; it < 100; ++it) {
+    double f = c[n], df = 0.0;
+    for (int k = n - 1; k >= 0; --k) {
+      df = df * x + f;
+      f = f * x + c[k];
+    }
+    if (f == 0.0) return x;
+    if ((f < 0.0) == (fa < 0.0)) {
+      a = x;
+      fa = f;
     } else {
-      ub = u;
-      fb = fu;
-      if (side == 1) fa /= 2.0;
-      side = 1;
+      b = x;
     }
+    double next = x - f / df;
+    if (!(next > a && next < b)) next = a + (b - a) / 2.0;  // Newton left the bracket (or df was 0)
+    if (next == x || !(b - a > 4.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(a), std::abs(b)))) {
+      return next;
+    }
+    x = next;
   }
-  return std::abs(fa) <= std::abs(fb) ? ua : ub;
+  return x;
 }
 
-struct Best {
-  double duration = std::numeric_limits<double>::infinity();  //!< [s]
-  double vp = 0.0;             //!< [m/s] peak velocity, or [s] the turn time t1 of an EarlyTurn
-  double cruise = 0.0;         //!< [s]
-  Shape shape = Shape::PeakVelocity;
+int real_roots(const double* c, int n, double lo, double hi, double* out) noexcept {
+  while (n > 0 && c[n] == 0.0) --n;
+  if (n == 0 || !(lo <= hi)) return 0;
+  if (n == 1) {
+    const double x = -c[0] / c[1];
+    if (!(x >= lo && x <= hi)) return 0;
+    out[0] = x;
+    return 1;
+  }
+  std::array<double, kMaxDegree> dc{};
+  for (int k = 0; k < n; ++k) dc[static_cast<std::size_t>(k)] = (k + 1) * c[k + 1];
+  std::array<double, kMaxDegree + 1> cuts{};
+  cuts[0] = lo;
+  const int m = real_roots(dc.data(), n - 1, lo, hi, cuts.data() + 1);
+  cuts[static_cast<std::size_t>(m) + 1] = hi;
+  int count = 0;
+  double fa = poly_eval(c, n, lo);
+  if (fa == 0.0) out[count++] = lo;
+  for (int i = 0; i <= m && count < n; ++i) {
+    const double a = cuts[static_cast<std::size_t>(i)], b = cuts[static_cast<std::size_t>(i) + 1];
+    const double fb = poly_eval(c, n, b);
+    if (fb == 0.0) {
+      out[count++] = b;
+    } else if (fa != 0.0 && (fa < 0.0) != (fb < 0.0)) {
+      out[count++] = polish(c, n, a, fa, b);
+    } else if (i < m) {
+      // A critical point whose value is zero up to rounding: a double root that rounding lifted off
+      // the axis. Accepting it is safe, every candidate is checked when it is built.
+      double scale = 0.0, xk = 1.0;
+      for (int k = 0; k <= n; ++k, xk *= std::abs(b)) scale += std::abs(c[k]) * xk;
+      if (std::abs(fb) <= 1e-11 * scale) out[count++] = b;
+    }
+    fa = fb;
+  }
+  return count;
+}
+
+//! Newton steps on the unsquared position equation of a NONE profile, P(x) + r(x) Q(x) = d with
+//! r = -sqrt(x^2 + c) (UDDU, branch -1) or sqrt(-(x^2 + c)) (UDUD, branch +1): next to the ends of
+//! [lo, hi], where r has a square-root end, the squared polynomial's root is ill-conditioned in x.
+double polish_none(double x, double lo, double hi, double v0, double a0, double d, double J, double branch) noexcept {
+  const double c = J * v0 - a0 * a0 / 2.0, J_2 = J * J, a0_2 = a0 * a0;
+  for (int it = 0; it < 3; ++it) {
+    const double r_sq = -branch * (x * x + c);
+    if (!(r_sq > 0.0)) break;
+    const double r = branch * std::sqrt(r_sq);
+    const double p = (-3.0 * J * a0 * v0 + 6.0 * J * v0 * x + a0 * a0_2 - 3.0 * a0_2 * x + 3.0 * x * x * x) / (3.0 * J_2);
+    const double q = branch * (2.0 * c + 2.0 * x * x) / (2.0 * J_2);
+    const double dp = (6.0 * J * v0 - 3.0 * a0_2 + 9.0 * x * x) / (3.0 * J_2);
+    const double dr = -branch * x / r;
+    const double dq = branch * 2.0 * x / J_2;
+    const double f = p + r * q - d, df = dp + dr * q + r * dq;
+    const double next = x - f / df;
+    if (!(next >= lo && next <= hi)) break;
+    x = next;
+  }
+  return x;
+}
+
+//! A candidate profile after the braking pre-phase, in the frame mirrored so that its first jerk is
+//! +j_max (jerk_sign -1 undoes the mirror). Either a no-cruise UDDU profile given by its head, jerk
+//! J for t0 and a plateau t1, followed by the time-optimal stop from the state reached; or a cruise
+//! member: the time-optimal change to cruise_velocity, a cruise, and the change to rest.
+struct Candidate {
+  double duration_s = std::numeric_limits<double>::infinity();
+  double t0_s = 0.0, t1_s = 0.0;  //!< head of a no-cruise profile [s]
+  double t2_s = 0.0;              //!< [s] UDUD only: the -J ramp of the head to zero acceleration
+  double cruise_velocity = 0.0;   //!< [m/s], 0 for a no-cruise profile
+  double cruise_s = 0.0;          //!< [s]
+  double jerk_sign = 1.0;
+  //! [m/s] (mirrored) velocity where the acceleration passes through zero between the change to
+  //! it and the change to rest (> 0 for UDDU, < 0 for UDUD); 0 for an early turn, which has none.
+  double peak_velocity = 0.0;
+  bool tried = false;  //!< built once and failed the end-state check
 };
 
-template <class F>
-void consider_root(const F& family, double x, Best& best) noexcept {
-  const double duration = family.at(x).duration;
-  if (duration < best.duration) best = {duration, x, 0.0, F::kShape};
-}
+constexpr std::size_t kMaxCandidates = 32;
 
-//! All roots of D(vp) = distance on one piece: sign changes over a sample grid, plus a search of
-//! each grid-level local minimum of |f| for a pair of roots between two samples (a near tangency).
-template <class F>
-void search_piece(const F& family, double lo, double hi, double distance, Best& best) noexcept {
-  constexpr int kSamples = 8;
-  const PieceFunction<F> f{&family, lo, hi, distance};
-  std::array<double, kSamples + 1> fs{};
-  for (int i = 0; i <= kSamples; ++i) fs[static_cast<std::size_t>(i)] = f(static_cast<double>(i) / kSamples);
-  for (int i = 0; i <= kSamples; ++i) {
-    const auto k = static_cast<std::size_t>(i);
-    const double u = static_cast<double>(i) / kSamples;
-    if (fs[k] == 0.0) {
-      consider_root(family, piece_vp(lo, hi, u), best);
-      continue;
+struct Candidates {
+  std::array<Candidate, kMaxCandidates> items{};
+  std::size_t count = 0;
+  void add(const Candidate& c) noexcept {
+    if (count < items.size() && std::isfinite(c.duration_s)) items[count++] = c;
+  }
+};
+
+//! Tolerances of the validity checks on a candidate: durations a rounding below zero are empty
+//! phases, and the limits hold to 1e-12 relative (the tests check 1e-9).
+constexpr double kTimeTolerance = 1e-12;
+constexpr double kLimitTolerance = 1e-12;
+
+//! The UDDU candidates with first jerk +j (the caller mirrors v0, a0, d for -j): jerk +J to the
+//! acceleration x (or a plateau at A = a_max), -J to z <= 0 (or a plateau at -A), +J to zero; the
+//! velocity ends at zero when z^2 = x^2 + c with c = J v0 - a0^2/2. Each type (neither plateau,
+//! ACC0, ACC1, both) leaves one unknown and a polynomial from the position; the cruise at +v_max
+//! (VEL) is closed-form. x < 0 is allowed: the acceleration turns towards zero without reaching
+//! it before the stop (the "early turn").
+void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, double jerk_sign,
+                     Candidates& out) noexcept {
+  const double J = lim.max_jerk, A = lim.max_acceleration, v_max = lim.max_velocity;
+  const double c = J * v0 - a0 * a0 / 2.0;
+  const double v_lim = v_max * (1.0 + kLimitTolerance);
+  std::array<double, kMaxDegree> roots{};
+  const auto add = [&](double duration, double t0, double t1, double peak_velocity) {
+    out.add({duration, std::max(t0, 0.0), std::max(t1, 0.0), 0.0, 0.0, 0.0, jerk_sign, peak_velocity, false});
+  };
+  const double a0_2 = a0 * a0, a0_3 = a0_2 * a0, J_2 = J * J, v0_2 = v0 * v0;
+  // Terms of the position equation shared by the plateau types.
+  const double shared = -24.0 * A * J_2 * d - 24.0 * A * J * a0 * v0 + 8.0 * A * a0_3;
+
+  // VEL: cruise at +v_max.
+  {
+    const VelocityChange c1 = velocity_change(v0, a0, v_max, A, J);
+    const VelocityChange c2 = velocity_change(v_max, 0.0, 0.0, A, J);
+    const JointState end = apply(apply({0.0, v0, a0}, c1), c2);
+    const double cruise = (d - end.position) / v_max;
+    if (cruise >= 0.0) {
+      out.add({c1.t1 + c1.t2 + c1.t3 + cruise + c2.t1 + c2.t2 + c2.t3, 0.0, 0.0, 0.0, v_max, cruise, jerk_sign, v_max,
+               false});
     }
-    if (i == kSamples) break;
-    const double un = static_cast<double>(i + 1) / kSamples;
-    if (fs[k + 1] != 0.0 && (fs[k] < 0.0) != (fs[k + 1] < 0.0)) {
-      consider_root(family, piece_vp(lo, hi, bracketed_root(f, u, fs[k], un, fs[k + 1])), best);
+  }
+  // NONE: unknown x in [a0, A] with x^2 + c in [0, A^2]; the position is P(x) + z Q(x) = d with
+  // z = -sqrt(x^2 + c), squared into a quartic (its spurious roots, z > 0, fail the residual).
+  {
+    const double k = 2.0 * c, h = 3.0 * J_2 * d + 3.0 * J * a0 * v0 - a0_3;
+    const double coef[5] = {(-72.0 * J_2 * J_2 * d * d - 144.0 * J_2 * J * a0 * d * v0 + 72.0 * J_2 * J * v0_2 * v0 +
+                             48.0 * J_2 * a0_3 * d - 180.0 * J_2 * a0_2 * v0_2 + 102.0 * J * a0_2 * a0_2 * v0 -
+                             17.0 * a0_3 * a0_3) / 72.0,
+                            2.0 / 3.0 * k * h, -k * k / 4.0, 2.0 / 3.0 * h, -k / 2.0};
+    double lo = a0, hi = A;
+    if (c < 0.0) lo = std::max(lo, std::sqrt(-c));
+    if (A * A - c < 0.0) hi = lo - 1.0;
+    else hi = std::min(hi, std::sqrt(A * A - c));
+    const int n = real_roots(coef, 4, lo, hi, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, -1.0);
+      const double z = -std::sqrt(std::max(x * x + c, 0.0));
+      const double p = (-3.0 * J * a0 * v0 + 6.0 * J * v0 * x + a0_3 - 3.0 * a0_2 * x + 3.0 * x * x * x) / (3.0 * J_2);
+      const double q = -(k + 2.0 * x * x) / (2.0 * J_2);
+      if (!(std::abs(p + z * q - d) <= 1e-6 * (std::abs(p) + std::abs(z * q) + std::abs(d)))) continue;
+      if (x < z - kTimeTolerance * J) continue;
+      const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
+      if (peak > v_lim) continue;
+      add((2.0 * x - a0 - 2.0 * z) / J, (x - a0) / J, 0.0, peak);
     }
-    if (i == 0) continue;
-    // Near tangency: f keeps its sign at the samples but may cross zero twice between them.
-    const double sign = fs[k] < 0.0 ? -1.0 : 1.0;
-    if (sign * fs[k - 1] <= 0.0 || sign * fs[k + 1] <= 0.0 || sign * fs[k] > sign * fs[k - 1] ||
-        sign * fs[k] > sign * fs[k + 1]) {
-      continue;
+  }
+  // ACC0: x = A; unknown z in [-A, 0]; t1 = (z^2 - A^2 - c)/(A J).
+  {
+    const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
+                                12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2,
+                            0.0, 12.0 * A * A, -24.0 * A, 12.0};
+    const int n = real_roots(coef, 4, -A, 0.0, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double z = roots[static_cast<std::size_t>(i)];
+      const double t1 = (z * z - A * A - c) / (A * J);
+      if (t1 < -kTimeTolerance) continue;
+      const double peak = v0 + (A * A - a0_2) / (2.0 * J) + A * std::max(t1, 0.0) + A * A / (2.0 * J);
+      if (peak > v_lim) continue;
+      add((A - a0) / J + std::max(t1, 0.0) + (A - 2.0 * z) / J, (A - a0) / J, t1, peak);
     }
-    double a = static_cast<double>(i - 1) / kSamples, b = un;
-    constexpr double kInvPhi = 0.6180339887498949;
-    double c = b - kInvPhi * (b - a), d = a + kInvPhi * (b - a);
-    double fc = sign * f(c), fd = sign * f(d);
-    for (int it = 0; it < 60 && fc > 0.0 && fd > 0.0; ++it) {
-      if (fc < fd) {
-        b = d;
-        d = c;
-        fd = fc;
-        c = b - kInvPhi * (b - a);
-        fc = sign * f(c);
-      } else {
-        a = c;
-        c = d;
-        fc = fd;
-        d = a + kInvPhi * (b - a);
-        fd = sign * f(d);
-      }
+  }
+  // ACC1: z = -A; unknown x in [max(a0, -A), A]; t5 = (x^2 - A^2 + c)/(A J).
+  {
+    const double k = 2.0 * J * v0 - a0_2;
+    const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared + 12.0 * J_2 * v0_2 -
+                                12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
+                            24.0 * A * k, 12.0 * (A * A + k), 24.0 * A, 12.0};
+    const int n = real_roots(coef, 4, std::max(a0, -A), A, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double x = roots[static_cast<std::size_t>(i)];
+      const double t5 = (x * x - A * A + c) / (A * J);
+      if (t5 < -kTimeTolerance) continue;
+      const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
+      if (peak > v_lim) continue;
+      add((x - a0) / J + (x + A) / J + std::max(t5, 0.0) + A / J, (x - a0) / J, 0.0, peak);
     }
-    const double um = fc <= fd ? c : d;
-    const double fm = std::min(fc, fd) * sign;
-    if (sign * fm > 0.0) continue;
-    if (fm == 0.0) {
-      consider_root(family, piece_vp(lo, hi, um), best);
-      continue;
+  }
+  // ACC0_ACC1: x = A, z = -A; unknown t1 >= 0; t5 = t1 + c/(A J).
+  {
+    const double coef[3] = {48.0 * A * A * A * A + 84.0 * A * A * J * v0 - 42.0 * A * A * a0_2 + shared +
+                                12.0 * J_2 * v0_2 - 12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
+                            24.0 * A * J * (3.0 * A * A + 2.0 * J * v0 - a0_2), 24.0 * A * A * J_2};
+    // Degree two: the stable quadratic formula (c2 > 0); a slightly negative discriminant is a
+    // double root lifted by rounding.
+    const double disc = coef[1] * coef[1] - 4.0 * coef[2] * coef[0];
+    int n = 0;
+    if (disc >= -1e-12 * coef[1] * coef[1]) {
+      const double q = -(coef[1] + std::copysign(std::sqrt(std::max(disc, 0.0)), coef[1])) / 2.0;
+      roots[0] = q / coef[2];
+      roots[1] = q != 0.0 ? coef[0] / q : roots[0];
+      n = 2;
     }
-    const double ul = static_cast<double>(i - 1) / kSamples;
-    consider_root(family, piece_vp(lo, hi, bracketed_root(f, ul, fs[k - 1], um, fm)), best);
-    consider_root(family, piece_vp(lo, hi, bracketed_root(f, um, fm, un, fs[k + 1])), best);
+    for (int i = 0; i < n; ++i) {
+      const double t1 = roots[static_cast<std::size_t>(i)];
+      const double t5 = t1 + c / (A * J);
+      if (t1 < -kTimeTolerance || t5 < -kTimeTolerance) continue;
+      const double peak = v0 + (A * A - a0_2) / (2.0 * J) + A * t1 + A * A / (2.0 * J);
+      if (peak > v_lim) continue;
+      add((A - a0) / J + t1 + 3.0 * A / J + std::max(t5, 0.0), (A - a0) / J, t1, peak);
+    }
   }
 }
 
@@ -253,6 +341,117 @@ bool append_brake(const JointLimits& lim, Profile& out) noexcept {
   return true;
 }
 
+//! The UDUD candidates with first jerk +j (mirrored as for UDDU): jerk +J to x >= 0 (or a plateau at
+//! A), -J to zero acceleration at a velocity vp < 0, +J to w >= 0 (or a plateau at A), -J to zero;
+//! the velocity ends at zero when x^2 + w^2 = -c. They are needed when the target lies just short
+//! of where the time-optimal stop would end: the stop has jerk pattern +J, -J, and stopping a little
+//! earlier means reaching a velocity between the one at zero acceleration and zero first. Both
+//! velocity extremes (at zero acceleration) lie between that velocity and zero, inside the limits.
+void udud_candidates(double v0, double a0, double d, const JointLimits& lim, double jerk_sign,
+                     Candidates& out) noexcept {
+  const double J = lim.max_jerk, A = lim.max_acceleration;
+  const double c = J * v0 - a0 * a0 / 2.0;
+  if (!(c < 0.0)) return;  // no vp < 0 with zero acceleration is reachable by a +J first ramp
+  std::array<double, kMaxDegree> roots{};
+  const double a0_2 = a0 * a0, a0_3 = a0_2 * a0, J_2 = J * J, v0_2 = v0 * v0;
+  const auto add = [&](double duration, double t0, double t1, double t2, double peak_velocity) {
+    out.add({duration, std::max(t0, 0.0), std::max(t1, 0.0), std::max(t2, 0.0), 0.0, 0.0, jerk_sign, peak_velocity,
+             false});
+  };
+  // Velocity at the zero acceleration between the ramps, after a plateau of t1 at A.
+  const auto plateau_peak = [&](double t1) { return v0 + (A * A - a0_2) / (2.0 * J) + A * t1 + A * A / (2.0 * J); };
+  const double shared = -24.0 * A * J_2 * d - 24.0 * A * J * a0 * v0 + 8.0 * A * a0_3;
+  const double plateau_c0 = 12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
+                            12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2;
+  const double x_lo = std::max(a0, 0.0);
+  // NONE: unknown x with w = sqrt(-(x^2 + c)) in [0, A]; P(x) + w Q(x) = d squared into a sextic.
+  {
+    const double k = 2.0 * c, h = 3.0 * J_2 * d + 3.0 * J * a0 * v0 - a0_3;
+    const double coef[7] = {-(72.0 * J_2 * J_2 * d * d + 144.0 * J_2 * J * a0 * d * v0 + 72.0 * J_2 * J * v0_2 * v0 -
+                              48.0 * J_2 * a0_3 * d - 36.0 * J_2 * a0_2 * v0_2 + 6.0 * J * a0_2 * a0_2 * v0 -
+                              a0_3 * a0_3) / 72.0,
+                            2.0 / 3.0 * k * h, -7.0 / 4.0 * k * k, 2.0 / 3.0 * h, -7.0 / 2.0 * k, 0.0, -2.0};
+    const double lo = std::max(x_lo, std::sqrt(std::max(-c - A * A, 0.0)));
+    const double hi = std::min(A, std::sqrt(-c));
+    const int n = real_roots(coef, 6, lo, hi, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, 1.0);
+      const double w = std::sqrt(std::max(-(x * x + c), 0.0));
+      const double p = (-3.0 * J * a0 * v0 + 6.0 * J * v0 * x + a0_3 - 3.0 * a0_2 * x + 3.0 * x * x * x) / (3.0 * J_2);
+      const double q = (k + 2.0 * x * x) / (2.0 * J_2);
+      if (!(std::abs(p + w * q - d) <= 1e-6 * (std::abs(p) + std::abs(w * q) + std::abs(d)))) continue;
+      add((2.0 * x - a0 + 2.0 * w) / J, (x - a0) / J, 0.0, x / J, -w * w / J);
+    }
+  }
+  // ACC0: x = A; unknown w in [0, A]; t1 = -(A^2 + c + w^2)/(A J).
+  {
+    const double coef[5] = {plateau_c0, 0.0, -12.0 * A * A, -24.0 * A, 12.0};
+    const int n = real_roots(coef, 4, 0.0, A, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double w = roots[static_cast<std::size_t>(i)];
+      const double t1 = -(A * A + c + w * w) / (A * J);
+      if (t1 < -kTimeTolerance) continue;
+      add((A - a0) / J + std::max(t1, 0.0) + (A + 2.0 * w) / J, (A - a0) / J, t1, A / J, plateau_peak(t1));
+    }
+  }
+  // ACC1: w = A; unknown x in [max(a0, 0), A]; t5 = -(A^2 + c + x^2)/(A J).
+  {
+    const double k = 2.0 * J * v0 - a0_2;
+    const double coef[5] = {plateau_c0, 24.0 * A * k, -12.0 * (k - A * A), 24.0 * A, -12.0};
+    const int n = real_roots(coef, 4, x_lo, A, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double x = roots[static_cast<std::size_t>(i)];
+      const double t5 = -(A * A + c + x * x) / (A * J);
+      if (t5 < -kTimeTolerance) continue;
+      add((2.0 * x - a0) / J + 2.0 * A / J + std::max(t5, 0.0), (x - a0) / J, 0.0, x / J, (x * x + c) / J);
+    }
+  }
+  // ACC0_ACC1: x = w = A; unknown t1 >= 0 (linear); t5 = -t1 - (2 A^2 + c)/(A J).
+  {
+    const double c0 = 24.0 * A * A * A * A + 36.0 * A * A * J * v0 - 18.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
+                      12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2;
+    const double t1 = -c0 / (24.0 * A * A * A * J);
+    const double t5 = -t1 - (2.0 * A * A + c) / (A * J);
+    if (t1 >= -kTimeTolerance && t5 >= -kTimeTolerance) {
+      add((A - a0) / J + std::max(t1, 0.0) + 3.0 * A / J + std::max(t5, 0.0), (A - a0) / J, t1, A / J,
+          plateau_peak(t1));
+    }
+  }
+}
+
+//! Appends the candidate's phases to `out` (which ends in the state `s`, its acceleration clamped) and
+//! checks the end state. The stop (or change to rest) is built from the state actually reached, so
+//! it ends at zero velocity and acceleration exactly; a cruise is re-timed once from the position
+//! error, so that a velocity rounding error is not multiplied by a long cruise.
+bool build(const Candidate& c, const JointState& s, double target_position, const JointLimits& lim,
+           Profile& out) noexcept {
+  const double a_max = lim.max_acceleration, j_max = lim.max_jerk;
+  const double jerk = c.jerk_sign * j_max;
+  if (c.cruise_velocity != 0.0) {
+    const VelocityChange c1 =
+        velocity_change(s.velocity, s.acceleration, c.jerk_sign * c.cruise_velocity, a_max, j_max);
+    if (!(out.append(c1.t1, c1.jerk) && out.append(c1.t2, 0.0) && out.append(c1.t3, -c1.jerk))) return false;
+  } else if (!(out.append(c.t0_s, jerk) && out.append(c.t1_s, 0.0) && out.append(c.t2_s, -jerk))) {
+    return false;
+  }
+  const std::size_t cruise_index = out.phase_count();
+  double cruise = c.cruise_s;
+  bool appended = true;
+  for (int pass = 0; pass < 2; ++pass) {
+    out.truncate(cruise_index);
+    JointState head = out.end_state();
+    head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
+    const VelocityChange stop = velocity_change(head.velocity, head.acceleration, 0.0, a_max, j_max);
+    appended = out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
+               out.append(stop.t3, -stop.jerk);
+    if (!(cruise > 0.0)) break;
+    cruise = std::max(cruise - (out.end_state().position - target_position) / head.velocity, 0.0);
+  }
+  const JointState& end = out.end_state();
+  return appended && std::abs(end.position - target_position) <= 1e-8 && std::abs(end.velocity) <= 1e-9 &&
+         std::abs(end.acceleration) <= 1e-9;
+}
+
 }  // namespace
 
 namespace {
@@ -284,8 +483,10 @@ CalculationResult calculate_stop(const JointState& start, const JointLimits& lim
   return {};
 }
 
-CalculationResult calculate_time_optimal(const JointState& start, double target_position, const JointLimits& limits,
-                                         Profile& out) noexcept {
+namespace {
+
+CalculationResult time_optimal(const JointState& start, double target_position, const JointLimits& limits,
+                               Profile& out) noexcept {
   out.reset(start);
   if (const CalculationResult r = validate(start, limits); !r.ok()) return r;
   if (!finite(target_position)) return {TrajectoryStatus::ErrorInvalidInput, InvalidField::TargetPosition};
@@ -295,74 +496,50 @@ CalculationResult calculate_time_optimal(const JointState& start, double target_
   JointState s = out.end_state();
   s.acceleration = std::clamp(s.acceleration, -limits.max_acceleration, limits.max_acceleration);
 
-  const double v_max = limits.max_velocity, a_max = limits.max_acceleration, j_max = limits.max_jerk;
-  const Family family{s.velocity, s.acceleration, a_max, j_max};
-  const double distance = target_position - s.position;
+  const double d = target_position - s.position;
+  if (d == 0.0 && s.velocity == 0.0 && s.acceleration == 0.0) return {};
+  Candidates candidates;
+  uddu_candidates(s.velocity, s.acceleration, d, limits, 1.0, candidates);
+  uddu_candidates(-s.velocity, -s.acceleration, -d, limits, -1.0, candidates);
+  udud_candidates(s.velocity, s.acceleration, d, limits, 1.0, candidates);
+  udud_candidates(-s.velocity, -s.acceleration, -d, limits, -1.0, candidates);
+  {
+    // A target where the time-optimal stop ends: every type above meets it only at the end of its
+    // interval (a ramp of zero length), where rounding may lose it. No move to rest is faster.
+    const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, limits.max_acceleration,
+                                                limits.max_jerk);
+    if (std::abs(apply({0.0, s.velocity, s.acceleration}, stop).position - d) <= 1e-9) {
+      candidates.add({stop.t1 + stop.t2 + stop.t3, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, false});
+    }
+  }
 
-  Best best;
-  for (const double vp : {v_max, -v_max}) {  // cruise members
-    const Member m = family.at(vp);
-    const double cruise = (distance - m.distance) / vp;
-    if (cruise >= 0.0 && m.duration + cruise < best.duration) best = {m.duration + cruise, vp, cruise, Shape::PeakVelocity};
-  }
-  // Breakpoints of D(vp): zero acceleration reached at once, plateaus begin, zero peak velocity.
-  const double v_az = s.velocity + s.acceleration * std::abs(s.acceleration) / (2.0 * j_max);
-  const double plateau = (a_max * a_max - s.acceleration * s.acceleration / 2.0) / j_max;
-  std::array<double, 8> cuts{-v_max, v_max, v_az, s.velocity + plateau, s.velocity - plateau,
-                             a_max * a_max / j_max, -a_max * a_max / j_max, 0.0};
-  for (double& c : cuts) c = std::clamp(c, -v_max, v_max);
-  std::sort(cuts.begin(), cuts.end());
-  for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
-    if (cuts[i + 1] > cuts[i]) search_piece(family, cuts[i], cuts[i + 1], distance, best);
-  }
-  const double a0 = s.acceleration;
-  if ((a0 < 0.0 && v_az > 0.0) || (a0 > 0.0 && v_az < 0.0)) {
-    // Mirrored so that a0 < 0: the change to rest after the turn reaches the plateau where
-    // j^2 t1^2 + 2 j a0 t1 + j v0 + a0^2/2 - a_max^2 = 0 (its peak acceleration squared is j v + a^2/2).
-    const double am = -std::abs(a0), vm = a0 < 0.0 ? s.velocity : -s.velocity;
-    const double t_zero = -am / j_max;
-    const EarlyTurn turn{s.velocity, a0, a_max, j_max};
-    std::array<double, 4> turn_cuts{0.0, t_zero, t_zero, t_zero};
-    const double disc = a_max * a_max - j_max * vm + am * am / 2.0;
-    if (disc >= 0.0) {
-      turn_cuts[1] = std::clamp((-am - std::sqrt(disc)) / j_max, 0.0, t_zero);
-      turn_cuts[2] = std::clamp((-am + std::sqrt(disc)) / j_max, 0.0, t_zero);
+  // The fastest candidate that builds to the exact end state; a later one only if rounding made
+  // the fastest miss it.
+  const std::size_t brake_phases = out.phase_count();
+  bool built = false;
+  for (std::size_t attempt = 0; attempt < candidates.count && !built; ++attempt) {
+    Candidate* best = nullptr;
+    for (std::size_t i = 0; i < candidates.count; ++i) {
+      Candidate& c = candidates.items[i];
+      if (!c.tried && (best == nullptr || c.duration_s < best->duration_s)) best = &c;
     }
-    std::sort(turn_cuts.begin(), turn_cuts.end());
-    for (std::size_t i = 0; i + 1 < turn_cuts.size(); ++i) {
-      if (turn_cuts[i + 1] > turn_cuts[i]) search_piece(turn, turn_cuts[i], turn_cuts[i + 1], distance, best);
-    }
+    if (best == nullptr) break;
+    best->tried = true;
+    out.truncate(brake_phases);
+    built = build(*best, s, target_position, limits, out);
   }
-  if (!std::isfinite(best.duration)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
-
-  if (best.shape == Shape::EarlyTurn) {
-    if (!out.append(best.vp, a0 < 0.0 ? j_max : -j_max)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
-  } else {
-    const VelocityChange c1 = velocity_change(s.velocity, s.acceleration, best.vp, a_max, j_max);
-    if (!(out.append(c1.t1, c1.jerk) && out.append(c1.t2, 0.0) && out.append(c1.t3, -c1.jerk))) {
-      return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
-    }
-  }
-  // The cruise and the final velocity change are built from the state actually reached, and a
-  // cruise is re-timed once from the position error: over a long cruise, a velocity rounding error
-  // at the end of the first change would otherwise grow into a position error.
-  const std::size_t cruise_index = out.phase_count();
-  bool appended = true;
-  for (int pass = 0; pass < 2; ++pass) {
-    out.truncate(cruise_index);
-    const JointState& peak = out.end_state();
-    const VelocityChange c2 = velocity_change(peak.velocity, peak.acceleration, 0.0, a_max, j_max);
-    appended = out.append(best.cruise, 0.0) && out.append(c2.t1, c2.jerk) && out.append(c2.t2, 0.0) &&
-               out.append(c2.t3, -c2.jerk);
-    if (!(best.cruise > 0.0)) break;
-    best.cruise = std::max(best.cruise - (out.end_state().position - target_position) / peak.velocity, 0.0);
-  }
-  const JointState& end = out.end_state();
-  if (!appended || !(std::abs(end.position - target_position) <= 1e-8) || !(std::abs(end.velocity) <= 1e-9) ||
-      !(std::abs(end.acceleration) <= 1e-9)) {
+  if (!built) {
+    out.truncate(brake_phases);
     return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   }
   return {};
+}
+
+}  // namespace
+
+CalculationResult calculate_time_optimal(const JointState& start, double target_position, const JointLimits& limits,
+                                         Profile& out) noexcept {
+  return time_optimal(start, target_position, limits, out);
 }
 
 }  // namespace mgc::guidance
