@@ -485,8 +485,26 @@ CalculationResult calculate_stop(const JointState& start, const JointLimits& lim
 
 namespace {
 
+//! What stretching one joint's move to a longer duration needs, kept from its time-optimal
+//! calculation. A stretched profile is the time-optimal change to a cruise velocity vp, a cruise at
+//! vp, and the time-optimal change to rest. As |vp| falls to zero on the side where the stop alone
+//! falls short of the target (`side`), the cruise grows without bound; towards larger |vp| the
+//! cruise shrinks to nothing at the first no-cruise profile on that side (or at v_max). So every
+//! duration from that profile's on is reachable, and the durations between the time-optimal one and
+//! it (when they differ: the time-optimal profile is an early turn or on the other side) are the
+//! blocked interval.
+struct Stretch {
+  JointState start{};            //!< after the braking pre-phase, its acceleration clamped
+  double brake_s = 0.0;          //!< [s] the braking pre-phase
+  double min_s = 0.0;            //!< [s] time-optimal duration, pre-phase included
+  double distance = 0.0;         //!< [m] from `start` to the target
+  double side = 1.0;             //!< sign of the cruise velocity of stretched profiles
+  double peak_end = 0.0;         //!< [m/s] largest |vp| of the stretchable branch
+  double stretch_from_s = 0.0;   //!< [s] shortest stretched duration, pre-phase included
+};
+
 CalculationResult time_optimal(const JointState& start, double target_position, const JointLimits& limits,
-                               Profile& out) noexcept {
+                               Profile& out, Stretch* stretch) noexcept {
   out.reset(start);
   if (const CalculationResult r = validate(start, limits); !r.ok()) return r;
   if (!finite(target_position)) return {TrajectoryStatus::ErrorInvalidInput, InvalidField::TargetPosition};
@@ -497,6 +515,8 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
   s.acceleration = std::clamp(s.acceleration, -limits.max_acceleration, limits.max_acceleration);
 
   const double d = target_position - s.position;
+  const double brake_s = out.duration();
+  if (stretch != nullptr) *stretch = {s, brake_s, brake_s, d, 1.0, 0.0, brake_s};
   if (d == 0.0 && s.velocity == 0.0 && s.acceleration == 0.0) return {};
   Candidates candidates;
   uddu_candidates(s.velocity, s.acceleration, d, limits, 1.0, candidates);
@@ -532,14 +552,158 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
     out.truncate(brake_phases);
     return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   }
+  if (stretch != nullptr) {
+    Stretch& st = *stretch;
+    st.min_s = out.duration();
+    const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, limits.max_acceleration,
+                                                limits.max_jerk);
+    st.side = d - apply({0.0, s.velocity, s.acceleration}, stop).position >= 0.0 ? 1.0 : -1.0;
+    st.peak_end = 0.0;
+    st.stretch_from_s = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < candidates.count; ++i) {
+      const Candidate& c = candidates.items[i];
+      const double vp = c.jerk_sign * c.peak_velocity;
+      if (!(vp * st.side > 0.0)) continue;
+      if (st.peak_end == 0.0 || std::abs(vp) < st.peak_end) {
+        st.peak_end = std::abs(vp);
+        st.stretch_from_s = brake_s + c.duration_s;
+      }
+    }
+    st.stretch_from_s = std::max(st.stretch_from_s, st.min_s);
+  }
   return {};
 }
+
+//! side * (position error) of the stretched profile with cruise velocity side * u lasting `after_s`
+//! in all: negative at u = 0 (the stop falls short), positive at the branch end.
+double stretch_error(const Stretch& st, const JointLimits& lim, double u, double after_s) noexcept {
+  const double vp = st.side * u;
+  const VelocityChange c1 = velocity_change(st.start.velocity, st.start.acceleration, vp, lim.max_acceleration,
+                                            lim.max_jerk);
+  const VelocityChange c2 = velocity_change(vp, 0.0, 0.0, lim.max_acceleration, lim.max_jerk);
+  const double changes_s = c1.t1 + c1.t2 + c1.t3 + c2.t1 + c2.t2 + c2.t3;
+  const double distance = apply(apply({0.0, st.start.velocity, st.start.acceleration}, c1), c2).position;
+  return st.side * (distance + vp * (after_s - changes_s) - st.distance);
+}
+
+//! Builds the stretched profile of duration_s into `out` (which holds the time-optimal one, whose
+//! pre-phase is kept): the cruise velocity by Illinois regula falsi with bisection steps on
+//! [0, peak_end], the cruise taking the time the two changes leave.
+CalculationResult stretch_to(const Stretch& st, double target_position, const JointLimits& lim, double duration_s,
+                             Profile& out) noexcept {
+  const double after_s = duration_s - st.brake_s;
+  double lo = 0.0, hi = st.peak_end;
+  double f_lo = stretch_error(st, lim, lo, after_s), f_hi = stretch_error(st, lim, hi, after_s);
+  double u = f_lo >= 0.0 ? lo : hi;
+  if (f_lo < 0.0 && f_hi > 0.0) {
+    int side = 0;
+    for (int i = 0; i < 200; ++i) {
+      u = (f_lo * hi - f_hi * lo) / (f_lo - f_hi);
+      if (!(u > lo && u < hi) || i % 4 == 3) u = lo + (hi - lo) / 2.0;
+      if (u <= lo || u >= hi) break;
+      const double f = stretch_error(st, lim, u, after_s);
+      if (f == 0.0) break;
+      if (f < 0.0) {
+        lo = u;
+        f_lo = f;
+        if (side == -1) f_hi /= 2.0;
+        side = -1;
+      } else {
+        hi = u;
+        f_hi = f;
+        if (side == 1) f_lo /= 2.0;
+        side = 1;
+      }
+    }
+    if (!(u > lo && u < hi)) u = std::abs(f_lo) <= std::abs(f_hi) ? lo : hi;
+  }
+  const double vp = st.side * u;
+  out.truncate(out.brake_phase_count);
+  const VelocityChange c1 = velocity_change(st.start.velocity, st.start.acceleration, vp, lim.max_acceleration,
+                                            lim.max_jerk);
+  if (!(out.append(c1.t1, c1.jerk) && out.append(c1.t2, 0.0) && out.append(c1.t3, -c1.jerk))) {
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  JointState peak = out.end_state();
+  peak.acceleration = std::clamp(peak.acceleration, -lim.max_acceleration, lim.max_acceleration);
+  const VelocityChange c2 = velocity_change(peak.velocity, peak.acceleration, 0.0, lim.max_acceleration, lim.max_jerk);
+  const double cruise_s = std::max(duration_s - out.duration() - (c2.t1 + c2.t2 + c2.t3), 0.0);
+  if (!(out.append(cruise_s, 0.0) && out.append(c2.t1, c2.jerk) && out.append(c2.t2, 0.0) &&
+        out.append(c2.t3, -c2.jerk))) {
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  const JointState& end = out.end_state();
+  if (!(std::abs(end.position - target_position) <= 1e-8) || !(std::abs(end.velocity) <= 1e-9) ||
+      !(std::abs(end.acceleration) <= 1e-9) || !(std::abs(out.duration() - duration_s) <= 1e-9 * duration_s)) {
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  return {};
+}
+
+//! Relative margin within which a requested duration counts as the time-optimal one.
+constexpr double kSameDuration = 1e-12;
 
 }  // namespace
 
 CalculationResult calculate_time_optimal(const JointState& start, double target_position, const JointLimits& limits,
                                          Profile& out) noexcept {
-  return time_optimal(start, target_position, limits, out);
+  return time_optimal(start, target_position, limits, out, nullptr);
+}
+
+CalculationResult calculate_for_duration(const JointState& start, double target_position, const JointLimits& limits,
+                                         double duration_s, Profile& out) noexcept {
+  Stretch st;
+  if (const CalculationResult r = time_optimal(start, target_position, limits, out, &st); !r.ok()) return r;
+  if (!finite(duration_s)) return {TrajectoryStatus::ErrorInvalidInput, InvalidField::Duration};
+  if (duration_s <= st.min_s * (1.0 + kSameDuration)) {
+    if (duration_s < st.min_s * (1.0 - kSameDuration)) return {TrajectoryStatus::ErrorDuration, InvalidField::None};
+    return {};
+  }
+  if (duration_s < st.stretch_from_s) return {TrajectoryStatus::ErrorDuration, InvalidField::None};
+  return stretch_to(st, target_position, limits, duration_s, out);
+}
+
+SynchronizedResult calculate_synchronized(const JointState* start, const double* target_position,
+                                          const JointLimits* limits, std::size_t joint_count, Profile* out) noexcept {
+  SynchronizedResult result;
+  if (joint_count == 0 || joint_count > kMaxSynchronizedJoints) {
+    result.status = TrajectoryStatus::ErrorInvalidInput;
+    result.field = InvalidField::JointCount;
+    result.joint = joint_count;
+    return result;
+  }
+  std::array<Stretch, kMaxSynchronizedJoints> st{};
+  double duration_s = 0.0;
+  for (std::size_t i = 0; i < joint_count; ++i) {
+    const CalculationResult r = time_optimal(start[i], target_position[i], limits[i], out[i], &st[i]);
+    if (!r.ok()) return {r.status, r.field, i, 0.0};
+    duration_s = std::max(duration_s, st[i].min_s);
+  }
+  // The least duration no joint has blocked: the slowest joint's minimum, or else the least
+  // stretched-profile start beyond it that every joint can take (Ruckig's blocked intervals).
+  const auto takes = [&](double t) {
+    for (std::size_t i = 0; i < joint_count; ++i) {
+      if (t > st[i].min_s * (1.0 + kSameDuration) && t < st[i].stretch_from_s) return false;
+    }
+    return true;
+  };
+  if (!takes(duration_s)) {
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < joint_count; ++i) {
+      if (st[i].stretch_from_s > duration_s && st[i].stretch_from_s < best && takes(st[i].stretch_from_s)) {
+        best = st[i].stretch_from_s;
+      }
+    }
+    if (!std::isfinite(best)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None, joint_count, 0.0};
+    duration_s = best;
+  }
+  for (std::size_t i = 0; i < joint_count; ++i) {
+    if (duration_s <= st[i].min_s * (1.0 + kSameDuration)) continue;
+    const CalculationResult r = stretch_to(st[i], target_position[i], limits[i], duration_s, out[i]);
+    if (!r.ok()) return {r.status, r.field, i, duration_s};
+  }
+  result.duration_s = duration_s;
+  return result;
 }
 
 }  // namespace mgc::guidance

@@ -29,6 +29,30 @@ TEST_CASE("calculate_time_optimal and Profile::at_time do not allocate", "[unit]
   CHECK(std::isfinite(sink));
 }
 
+TEST_CASE("calculate_for_duration and calculate_synchronized do not allocate", "[unit]") {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::array<JointState, kMaxSynchronizedJoints> starts{};
+  std::array<double, kMaxSynchronizedJoints> targets{};
+  std::array<JointLimits, kMaxSynchronizedJoints> limits{};
+  std::array<Profile, kMaxSynchronizedJoints> out{};
+  double sink = 0.0;
+  const long before = mgc::test::allocation_count();
+  for (int n = 0; n < 2000; ++n) {
+    for (std::size_t i = 0; i < kMaxSynchronizedJoints; ++i) {
+      limits[i] = {1.0 + u(rng) * 0.5, 2.0 + u(rng), 5.0 + u(rng)};
+      starts[i] = {u(rng), 3.0 * u(rng), 6.0 * u(rng)};
+      targets[i] = 5.0 * u(rng);
+    }
+    const SynchronizedResult r = calculate_synchronized(starts.data(), targets.data(), limits.data(), 4, out.data());
+    sink += r.ok() ? r.duration_s : 0.0;
+    const CalculationResult d = calculate_for_duration(starts[5], targets[5], limits[5], 10.0 + u(rng), out[5]);
+    sink += d.ok() ? out[5].duration() : 0.0;
+  }
+  CHECK(mgc::test::allocation_count() == before);
+  CHECK(std::isfinite(sink));
+}
+
 TEST_CASE("the online trajectory and the one-joint-at-a-time wrapper do not allocate", "[unit]") {
   std::mt19937_64 rng(4);
   std::uniform_real_distribution<double> u(-1.0, 1.0);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 #include "mgc/guidance/profile.hpp"
@@ -57,5 +58,35 @@ struct CalculationResult {
 //! Time-optimal stop of one joint: the braking pre-phase if needed, then the fastest velocity change
 //! to rest (wherever it ends). RT-safe.
 [[nodiscard]] CalculationResult calculate_stop(const JointState& start, const JointLimits& limits, Profile& out) noexcept;
+
+//! The same move taking exactly duration_s [s] from `start` (braking pre-phase included): the
+//! time-optimal change to a cruise velocity, the cruise, the time-optimal change to rest
+//! (docs/trajectory.md). ErrorDuration when duration_s is shorter than the time-optimal duration or
+//! inside the joint's blocked interval (durations just above the minimum that no profile of this
+//! form takes); `out` then holds the time-optimal profile. RT-safe.
+[[nodiscard]] CalculationResult calculate_for_duration(const JointState& start, double target_position,
+                                                       const JointLimits& limits, double duration_s,
+                                                       Profile& out) noexcept;
+
+//! Joints a synchronized calculation holds (fixed arrays, no allocation).
+inline constexpr std::size_t kMaxSynchronizedJoints = 8;
+
+//! Result of a synchronized calculation: the status, the offending joint and field on error, and
+//! the common duration.
+struct SynchronizedResult {
+  TrajectoryStatus status = TrajectoryStatus::Working;
+  InvalidField field = InvalidField::None;
+  std::size_t joint = 0;    //!< the joint that failed; joint_count for the joint count itself
+  double duration_s = 0.0;  //!< [s] the common duration
+  [[nodiscard]] bool ok() const noexcept { return status == TrajectoryStatus::Working; }
+};
+
+//! Synchronized move of joint_count (1..kMaxSynchronizedJoints) joints, each to rest at its target:
+//! every profile out[i] lasts the least duration that all joints can take, which is the slowest
+//! joint's time-optimal duration unless that falls in another joint's blocked interval (Ruckig's
+//! step 2). Arrays hold joint_count entries. RT-safe: no alloc, no lock, no throw.
+[[nodiscard]] SynchronizedResult calculate_synchronized(const JointState* start, const double* target_position,
+                                                        const JointLimits* limits, std::size_t joint_count,
+                                                        Profile* out) noexcept;
 
 }  // namespace mgc::guidance

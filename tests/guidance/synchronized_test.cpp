@@ -1,0 +1,213 @@
+// SPDX-License-Identifier: Apache-2.0
+// Profiles of a given duration and synchronized multi-joint moves: exact durations and end states,
+// limits, the choice of the common duration, and blocked intervals.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <random>
+
+#include "mgc/guidance/trajectory.hpp"
+
+using namespace mgc::guidance;
+
+namespace {
+
+struct Move {
+  JointState start;
+  double target = 0.0;
+  JointLimits limits;
+};
+
+//! Limits over three decades, states inside the limits or (one in four) up to twice beyond them.
+Move random_move(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto log_uniform = [&](double lo, double hi) { return lo * std::pow(hi / lo, unit(rng)); };
+  Move m;
+  m.limits.max_jerk = log_uniform(0.1, 100.0);
+  m.limits.max_acceleration = std::clamp(m.limits.max_jerk * log_uniform(0.02, 5.0), 0.01, 50.0);
+  m.limits.max_velocity = std::clamp(m.limits.max_acceleration * log_uniform(0.02, 5.0), 0.01, 50.0);
+  const double reach = unit(rng) < 0.25 ? 2.0 : 1.0;
+  m.start = {(2.0 * unit(rng) - 1.0) * 5.0, (2.0 * unit(rng) - 1.0) * reach * m.limits.max_velocity,
+             (2.0 * unit(rng) - 1.0) * reach * m.limits.max_acceleration};
+  m.target = (2.0 * unit(rng) - 1.0) * 5.0;
+  if (unit(rng) < 0.1) m.start.velocity = 0.0;
+  if (unit(rng) < 0.1) m.start.acceleration = 0.0;
+  return m;
+}
+
+//! End state exact, |j| <= j_max, and after the braking pre-phase |v|, |a| within the limits (checked
+//! at phase ends and at the interior zero-acceleration instants, where the velocity peaks).
+bool valid(const Profile& p, const Move& m) {
+  const JointState& end = p.end_state();
+  if (!(std::abs(end.position - m.target) <= 1e-8 && std::abs(end.velocity) <= 1e-9 &&
+        std::abs(end.acceleration) <= 1e-9)) {
+    return false;
+  }
+  const double v_lim = m.limits.max_velocity * (1.0 + 1e-9), a_lim = m.limits.max_acceleration * (1.0 + 1e-9);
+  for (std::size_t i = 0; i < p.phase_count(); ++i) {
+    if (!(std::abs(p.phase_jerk(i)) <= m.limits.max_jerk && p.phase_duration(i) > 0.0)) return false;
+    if (i < p.brake_phase_count) continue;
+    const JointState& s = p.state_at_phase(i);
+    const JointState& e = p.state_at_phase(i + 1);
+    double v = std::max(std::abs(s.velocity), std::abs(e.velocity));
+    const double a = std::max(std::abs(s.acceleration), std::abs(e.acceleration));
+    const double j = p.phase_jerk(i);
+    if (j != 0.0 && -s.acceleration / j > 0.0 && -s.acceleration / j < p.phase_duration(i)) {
+      v = std::max(v, std::abs(advance(s, j, -s.acceleration / j).velocity));
+    }
+    if (v > v_lim || a > a_lim) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("a given duration is met exactly, or refused as too short or blocked", "[duration]") {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  Profile optimal, profile;
+  int stretched = 0, blocked = 0, failures = 0;
+  for (int n = 0; n < 20000; ++n) {
+    const Move m = random_move(rng);
+    REQUIRE(calculate_time_optimal(m.start, m.target, m.limits, optimal).ok());
+    const double t_min = optimal.duration();
+    // Shorter than the minimum: refused.
+    if (t_min > 1e-6) {
+      CHECK(calculate_for_duration(m.start, m.target, m.limits, t_min * 0.999, profile).status ==
+            TrajectoryStatus::ErrorDuration);
+    }
+    const double t = t_min * (1.0 + 2.0 * unit(rng) * unit(rng)) + (unit(rng) < 0.1 ? 5.0 : 0.0);
+    const CalculationResult r = calculate_for_duration(m.start, m.target, m.limits, t, profile);
+    bool ok = true;
+    if (r.status == TrajectoryStatus::ErrorDuration) {
+      // Only inside a blocked interval just above the minimum: much longer moves are taken.
+      ++blocked;
+      ok = calculate_for_duration(m.start, m.target, m.limits, 10.0 * t_min + 10.0, profile).ok();
+    } else {
+      ++stretched;
+      ok = r.ok() && std::abs(profile.duration() - t) <= 1e-9 * t && valid(profile, m);
+    }
+    if (!ok && ++failures <= 5) {
+      CAPTURE(n, m.start.position, m.start.velocity, m.start.acceleration, m.target, m.limits.max_velocity,
+              m.limits.max_acceleration, m.limits.max_jerk, t_min, t, static_cast<int>(r.status), profile.duration());
+      CHECK(ok);
+    }
+  }
+  CHECK(failures == 0);
+  CHECK(stretched > 15000);
+  CHECK(blocked > 0);
+}
+
+TEST_CASE("synchronized joints end together within their limits", "[synchronized]") {
+  std::mt19937_64 rng(12);
+  std::array<Move, kMaxSynchronizedJoints> moves{};
+  std::array<JointState, kMaxSynchronizedJoints> starts{};
+  std::array<double, kMaxSynchronizedJoints> targets{};
+  std::array<JointLimits, kMaxSynchronizedJoints> limits{};
+  std::array<Profile, kMaxSynchronizedJoints> out{};
+  Profile optimal;
+  int at_slowest = 0, failures = 0;
+  for (int n = 0; n < 5000; ++n) {
+    const std::size_t count = 1 + static_cast<std::size_t>(n) % kMaxSynchronizedJoints;
+    double slowest = 0.0;
+    for (std::size_t i = 0; i < count; ++i) {
+      moves[i] = random_move(rng);
+      starts[i] = moves[i].start;
+      targets[i] = moves[i].target;
+      limits[i] = moves[i].limits;
+      REQUIRE(calculate_time_optimal(starts[i], targets[i], limits[i], optimal).ok());
+      slowest = std::max(slowest, optimal.duration());
+    }
+    const SynchronizedResult r = calculate_synchronized(starts.data(), targets.data(), limits.data(), count, out.data());
+    bool ok = r.ok() && r.duration_s >= slowest;
+    for (std::size_t i = 0; i < count && ok; ++i) {
+      ok = std::abs(out[i].duration() - r.duration_s) <= 1e-9 * r.duration_s && valid(out[i], moves[i]);
+    }
+    // A longer common duration only when the slowest minimum is blocked for some joint.
+    if (ok && r.duration_s > slowest * (1.0 + 1e-12)) {
+      bool some_blocked = false;
+      for (std::size_t i = 0; i < count; ++i) {
+        some_blocked = some_blocked || calculate_for_duration(starts[i], targets[i], limits[i], slowest, optimal).status ==
+                                           TrajectoryStatus::ErrorDuration;
+      }
+      ok = some_blocked;
+    } else if (ok) {
+      ++at_slowest;
+    }
+    if (!ok && ++failures <= 5) {
+      CAPTURE(n, count, static_cast<int>(r.status), r.joint, r.duration_s, slowest);
+      CHECK(ok);
+    }
+  }
+  CHECK(failures == 0);
+  CHECK(at_slowest > 4000);
+}
+
+TEST_CASE("a joint's blocked interval moves the common duration past it", "[synchronized]") {
+  // Moving fast towards a target just beyond its time-optimal stop: the fastest move brakes less,
+  // with the acceleration never passing through zero (an early turn); a stretched move must brake
+  // below the target's side first, so durations just above the minimum are blocked.
+  const JointLimits lim{1.0, 1.0, 1.0};
+  const JointState fast{0.0, 0.9, -0.8};
+  Profile stop, profile;
+  REQUIRE(calculate_stop(fast, lim, stop).ok());
+  const double target = stop.end_state().position + 0.01;
+  REQUIRE(calculate_time_optimal(fast, target, lim, profile).ok());
+  const double t_min = profile.duration();
+  // Find the end of the blocked interval by bisection on the refusal.
+  double lo = t_min * (1.0 + 1e-9), hi = 10.0 * t_min + 10.0;
+  REQUIRE(calculate_for_duration(fast, target, lim, hi, profile).ok());
+  const TrajectoryStatus just_above = calculate_for_duration(fast, target, lim, lo, profile).status;
+  REQUIRE(just_above == TrajectoryStatus::ErrorDuration);
+  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = (lo + hi) / 2.0;
+    (calculate_for_duration(fast, target, lim, mid, profile).ok() ? hi : lo) = mid;
+  }
+  const double blocked_end = hi;
+  CHECK(blocked_end > t_min * 1.01);
+
+  // A second joint, at rest, whose time-optimal duration falls inside the blocked interval.
+  const double inside = (t_min + blocked_end) / 2.0;
+  const JointLimits slow_lim{0.5, 0.5, 0.5};
+  double lo_d = 0.0, hi_d = 100.0;  // the distance whose time-optimal duration is `inside`
+  for (int i = 0; i < 200; ++i) {
+    const double mid = (lo_d + hi_d) / 2.0;
+    REQUIRE(calculate_time_optimal({}, mid, slow_lim, profile).ok());
+    (profile.duration() < inside ? lo_d : hi_d) = mid;
+  }
+  const std::array<JointState, 2> starts{fast, JointState{}};
+  const std::array<double, 2> targets{target, lo_d};
+  const std::array<JointLimits, 2> limits{lim, slow_lim};
+  std::array<Profile, 2> out{};
+  const SynchronizedResult r = calculate_synchronized(starts.data(), targets.data(), limits.data(), 2, out.data());
+  REQUIRE(r.ok());
+  CHECK(r.duration_s == Approx(blocked_end).epsilon(1e-9));
+  CHECK(out[0].duration() == Approx(r.duration_s).epsilon(1e-12));
+  CHECK(out[1].duration() == Approx(r.duration_s).epsilon(1e-12));
+  CHECK(std::abs(out[0].end_state().position - target) <= 1e-8);
+  CHECK(std::abs(out[1].end_state().position - lo_d) <= 1e-8);
+}
+
+TEST_CASE("synchronized input errors name the joint and the field", "[synchronized]") {
+  std::array<JointState, 2> starts{};
+  const std::array<double, 2> targets{1.0, 2.0};
+  std::array<JointLimits, 2> limits{};
+  std::array<Profile, 2> out{};
+  CHECK(calculate_synchronized(starts.data(), targets.data(), limits.data(), 0, out.data()).field ==
+        InvalidField::JointCount);
+  CHECK(calculate_synchronized(starts.data(), targets.data(), limits.data(), kMaxSynchronizedJoints + 1, out.data())
+            .field == InvalidField::JointCount);
+  limits[1].max_jerk = 0.0;
+  const SynchronizedResult r = calculate_synchronized(starts.data(), targets.data(), limits.data(), 2, out.data());
+  CHECK(r.status == TrajectoryStatus::ErrorInvalidInput);
+  CHECK(r.joint == 1);
+  CHECK(r.field == InvalidField::MaxJerk);
+  // Joints already at rest at their targets: a common duration of zero.
+  limits[1].max_jerk = 1.0;
+  const std::array<double, 2> here{0.0, 0.0};
+  const SynchronizedResult still = calculate_synchronized(starts.data(), here.data(), limits.data(), 2, out.data());
+  CHECK(still.ok());
+  CHECK(still.duration_s == 0.0);
+}
