@@ -61,9 +61,14 @@ double poly_eval(const double* c, int n, double x) noexcept {
   return r;
 }
 
-//! The root of c in [a, b], where the values at a (fa) and b differ in sign.
-double polish(const double* c, int n, double a, double fa, double b) noexcept {
-  double x = a + (b - a) / 2.0;
+//! The root of c in [a, b], where the values at a (fa) and b (fb) differ in sign: Newton steps from
+//! the secant point, a bisection whenever a step would leave the bracket.
+double polish(const double* c, int n, double a, double fa, double b, double fb, double rel_tol) noexcept {
+  double x = (a * fb - b * fa) / (fb - fa);
+  if (!(x > a && x < b)) x = a + (b - a) / 2.0;
+  // Relative to the bracket's magnitude, so that a root at or near zero stops as soon as one
+  // elsewhere would.
+  const double tol = rel_tol * std::max({std::abs(a), std::abs(b), b - a});
   for (int it = 0; it < 100; ++it) {
     double f = c[n], df = 0.0;
     for (int k = n - 1; k >= 0; --k) {
@@ -76,18 +81,43 @@ double polish(const double* c, int n, double a, double fa, double b) noexcept {
       fa = f;
     } else {
       b = x;
+      fb = f;
     }
     double next = x - f / df;
-    if (!(next > a && next < b)) next = a + (b - a) / 2.0;  // Newton left the bracket (or df was 0)
-    if (next == x || !(b - a > 4.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(a), std::abs(b)))) {
-      return next;
+    if (!(next > a && next < b)) {
+      // Newton left the bracket (or df was 0): the secant of the bracket, halved values at an end
+      // kept twice would be better still, but a bisection every other time bounds the iterations.
+      next = (it % 2 == 0) ? (a * fb - b * fa) / (fb - fa) : a + (b - a) / 2.0;
+      if (!(next > a && next < b)) next = a + (b - a) / 2.0;
     }
+    if (std::abs(next - x) <= tol || !(b - a > tol)) return next;
     x = next;
   }
   return x;
 }
 
-int real_roots(const double* c, int n, double lo, double hi, double* out) noexcept {
+//! True when c certainly has no root in [lo, hi]: the value at the midpoint exceeds what the other
+//! Taylor terms can change it by over the half-width. Most profile types have no root in their
+//! interval; this skips them without isolating the critical points.
+bool no_root(const double* c, int n, double lo, double hi) noexcept {
+  const double m = lo + (hi - lo) / 2.0, r = (hi - lo) / 2.0;
+  std::array<double, kMaxDegree + 1> t{};  // Taylor coefficients at m, by repeated synthetic division
+  for (int k = 0; k <= n; ++k) t[static_cast<std::size_t>(k)] = c[k];
+  for (int i = 0; i <= n; ++i) {
+    for (int k = n - 1; k >= i; --k) t[static_cast<std::size_t>(k)] += m * t[static_cast<std::size_t>(k) + 1];
+  }
+  double bound = 0.0, rk = 1.0;
+  for (int k = 1; k <= n; ++k) {
+    rk *= r;
+    bound += std::abs(t[static_cast<std::size_t>(k)]) * rk;
+  }
+  return std::abs(t[0]) > bound * (1.0 + 1e-12);
+}
+
+//! rel_tol: the relative step at which polishing stops; the critical points of the level above only
+//! isolate its roots and need less than full precision.
+int real_roots(const double* c, int n, double lo, double hi, double* out,
+               double rel_tol = 4.0 * std::numeric_limits<double>::epsilon()) noexcept {
   while (n > 0 && c[n] == 0.0) --n;
   if (n == 0 || !(lo <= hi)) return 0;
   if (n == 1) {
@@ -96,11 +126,33 @@ int real_roots(const double* c, int n, double lo, double hi, double* out) noexce
     out[0] = x;
     return 1;
   }
+  if (n == 2) {
+    // The stable quadratic formula; a slightly negative discriminant is a double root lifted off
+    // the axis by rounding.
+    const double disc = c[1] * c[1] - 4.0 * c[2] * c[0];
+    std::array<double, 2> x{};
+    int m = 0;
+    if (disc >= 0.0) {
+      const double q = -(c[1] + std::copysign(std::sqrt(disc), c[1])) / 2.0;
+      x = {q / c[2], q != 0.0 ? c[0] / q : q / c[2]};
+      if (x[0] > x[1]) std::swap(x[0], x[1]);
+      m = 2;
+    } else if (disc >= -1e-12 * c[1] * c[1]) {
+      x[0] = -c[1] / (2.0 * c[2]);
+      m = 1;
+    }
+    int count = 0;
+    for (int i = 0; i < m; ++i) {
+      if (x[static_cast<std::size_t>(i)] >= lo && x[static_cast<std::size_t>(i)] <= hi) out[count++] = x[static_cast<std::size_t>(i)];
+    }
+    return count;
+  }
+  if (no_root(c, n, lo, hi)) return 0;
   std::array<double, kMaxDegree> dc{};
   for (int k = 0; k < n; ++k) dc[static_cast<std::size_t>(k)] = (k + 1) * c[k + 1];
   std::array<double, kMaxDegree + 1> cuts{};
   cuts[0] = lo;
-  const int m = real_roots(dc.data(), n - 1, lo, hi, cuts.data() + 1);
+  const int m = real_roots(dc.data(), n - 1, lo, hi, cuts.data() + 1, 1e-10);
   cuts[static_cast<std::size_t>(m) + 1] = hi;
   int count = 0;
   double fa = poly_eval(c, n, lo);
@@ -111,7 +163,7 @@ int real_roots(const double* c, int n, double lo, double hi, double* out) noexce
     if (fb == 0.0) {
       out[count++] = b;
     } else if (fa != 0.0 && (fa < 0.0) != (fb < 0.0)) {
-      out[count++] = polish(c, n, a, fa, b);
+      out[count++] = polish(c, n, a, fa, b, fb, rel_tol);
     } else if (i < m) {
       // A critical point whose value is zero up to rounding: a double root that rounding lifted off
       // the axis. Accepting it is safe, every candidate is checked when it is built.
@@ -168,9 +220,16 @@ constexpr std::size_t kMaxCandidates = 32;
 struct Candidates {
   std::array<Candidate, kMaxCandidates> items{};
   std::size_t count = 0;
+  //! [s] the fastest so far; a type whose durations are all longer is not solved (when `prune`).
+  double best_s = std::numeric_limits<double>::infinity();
+  bool prune = true;
   void add(const Candidate& c) noexcept {
-    if (count < items.size() && std::isfinite(c.duration_s)) items[count++] = c;
+    if (count < items.size() && std::isfinite(c.duration_s)) {
+      items[count++] = c;
+      best_s = std::min(best_s, c.duration_s);
+    }
   }
+  [[nodiscard]] bool beaten(double lower_bound_s) const noexcept { return prune && lower_bound_s > best_s; }
 };
 
 //! Tolerances of the validity checks on a candidate: durations a rounding below zero are empty
@@ -220,7 +279,9 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     if (c < 0.0) lo = std::max(lo, std::sqrt(-c));
     if (A * A - c < 0.0) hi = lo - 1.0;
     else hi = std::min(hi, std::sqrt(A * A - c));
-    const int n = real_roots(coef, 4, lo, hi, roots.data());
+    // The duration (2x - a0 - 2z)/J grows with x: its least value is at lo.
+    const bool beaten = out.beaten((2.0 * lo - a0 + 2.0 * std::sqrt(std::max(lo * lo + c, 0.0))) / J);
+    const int n = beaten ? 0 : real_roots(coef, 4, lo, hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, -1.0);
       const double z = -std::sqrt(std::max(x * x + c, 0.0));
@@ -238,7 +299,9 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
                                 12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2,
                             0.0, 12.0 * A * A, -24.0 * A, 12.0};
-    const int n = real_roots(coef, 4, -A, 0.0, roots.data());
+    // The duration falls as z rises: its least value is at z = 0.
+    const bool beaten = out.beaten((2.0 * A - a0) / J + std::max((-A * A - c) / (A * J), 0.0));
+    const int n = beaten ? 0 : real_roots(coef, 4, -A, 0.0, roots.data());
     for (int i = 0; i < n; ++i) {
       const double z = roots[static_cast<std::size_t>(i)];
       const double t1 = (z * z - A * A - c) / (A * J);
@@ -254,7 +317,10 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared + 12.0 * J_2 * v0_2 -
                                 12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
                             24.0 * A * k, 12.0 * (A * A + k), 24.0 * A, 12.0};
-    const int n = real_roots(coef, 4, std::max(a0, -A), A, roots.data());
+    // The duration grows with x: its least value is at the lower end.
+    const double lo = std::max(a0, -A);
+    const bool beaten = out.beaten((2.0 * lo - a0 + 2.0 * A) / J + std::max((lo * lo - A * A + c) / (A * J), 0.0));
+    const int n = beaten ? 0 : real_roots(coef, 4, lo, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = roots[static_cast<std::size_t>(i)];
       const double t5 = (x * x - A * A + c) / (A * J);
@@ -373,7 +439,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
                             2.0 / 3.0 * k * h, -7.0 / 4.0 * k * k, 2.0 / 3.0 * h, -7.0 / 2.0 * k, 0.0, -2.0};
     const double lo = std::max(x_lo, std::sqrt(std::max(-c - A * A, 0.0)));
     const double hi = std::min(A, std::sqrt(-c));
-    const int n = real_roots(coef, 6, lo, hi, roots.data());
+    const int n = out.beaten((2.0 * lo - a0) / J) ? 0 : real_roots(coef, 6, lo, hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, 1.0);
       const double w = std::sqrt(std::max(-(x * x + c), 0.0));
@@ -386,7 +452,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   // ACC0: x = A; unknown w in [0, A]; t1 = -(A^2 + c + w^2)/(A J).
   {
     const double coef[5] = {plateau_c0, 0.0, -12.0 * A * A, -24.0 * A, 12.0};
-    const int n = real_roots(coef, 4, 0.0, A, roots.data());
+    const int n = out.beaten((2.0 * A - a0) / J) ? 0 : real_roots(coef, 4, 0.0, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double w = roots[static_cast<std::size_t>(i)];
       const double t1 = -(A * A + c + w * w) / (A * J);
@@ -398,7 +464,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   {
     const double k = 2.0 * J * v0 - a0_2;
     const double coef[5] = {plateau_c0, 24.0 * A * k, -12.0 * (k - A * A), 24.0 * A, -12.0};
-    const int n = real_roots(coef, 4, x_lo, A, roots.data());
+    const int n = out.beaten((2.0 * x_lo - a0 + 2.0 * A) / J) ? 0 : real_roots(coef, 4, x_lo, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = roots[static_cast<std::size_t>(i)];
       const double t5 = -(A * A + c + x * x) / (A * J);
@@ -518,35 +584,46 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
   const double brake_s = out.duration();
   if (stretch != nullptr) *stretch = {s, brake_s, brake_s, d, 1.0, 0.0, brake_s};
   if (d == 0.0 && s.velocity == 0.0 && s.acceleration == 0.0) return {};
+  // The time-optimal stop decides which way the target lies from where the joint would stop; the
+  // types of that direction are solved first, so that the other direction's are mostly pruned by
+  // their least possible duration.
+  const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, limits.max_acceleration,
+                                              limits.max_jerk);
+  const double stop_distance = apply({0.0, s.velocity, s.acceleration}, stop).position;
+  const double side = d - stop_distance >= 0.0 ? 1.0 : -1.0;
+  const std::size_t brake_phases = out.phase_count();
   Candidates candidates;
-  uddu_candidates(s.velocity, s.acceleration, d, limits, 1.0, candidates);
-  uddu_candidates(-s.velocity, -s.acceleration, -d, limits, -1.0, candidates);
-  udud_candidates(s.velocity, s.acceleration, d, limits, 1.0, candidates);
-  udud_candidates(-s.velocity, -s.acceleration, -d, limits, -1.0, candidates);
-  {
-    // A target where the time-optimal stop ends: every type above meets it only at the end of its
-    // interval (a ramp of zero length), where rounding may lose it. No move to rest is faster.
-    const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, limits.max_acceleration,
-                                                limits.max_jerk);
-    if (std::abs(apply({0.0, s.velocity, s.acceleration}, stop).position - d) <= 1e-9) {
+  bool built = false;
+  for (int pass = 0; pass < 2 && !built; ++pass) {
+    candidates = Candidates{};
+    // A second pass, unpruned, only if no candidate built. A stretch needs every no-cruise profile
+    // whose zero-acceleration velocity points to `side` (UDDU that way, UDUD the other), not only
+    // the fastest.
+    candidates.prune = pass == 0 && stretch == nullptr;
+    // A target where the stop ends: every type below meets it only at the end of its interval (a
+    // ramp of zero length), where rounding may lose it. No move to rest is faster.
+    if (std::abs(stop_distance - d) <= 1e-9) {
       candidates.add({stop.t1 + stop.t2 + stop.t3, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, false});
     }
-  }
+    uddu_candidates(side * s.velocity, side * s.acceleration, side * d, limits, side, candidates);
+    udud_candidates(-side * s.velocity, -side * s.acceleration, -side * d, limits, -side, candidates);
+    candidates.prune = pass == 0;
+    uddu_candidates(-side * s.velocity, -side * s.acceleration, -side * d, limits, -side, candidates);
+    udud_candidates(side * s.velocity, side * s.acceleration, side * d, limits, side, candidates);
 
-  // The fastest candidate that builds to the exact end state; a later one only if rounding made
-  // the fastest miss it.
-  const std::size_t brake_phases = out.phase_count();
-  bool built = false;
-  for (std::size_t attempt = 0; attempt < candidates.count && !built; ++attempt) {
-    Candidate* best = nullptr;
-    for (std::size_t i = 0; i < candidates.count; ++i) {
-      Candidate& c = candidates.items[i];
-      if (!c.tried && (best == nullptr || c.duration_s < best->duration_s)) best = &c;
+    // The fastest candidate that builds to the exact end state; a later one only if rounding made
+    // the fastest miss it.
+    for (std::size_t attempt = 0; attempt < candidates.count && !built; ++attempt) {
+      Candidate* best = nullptr;
+      for (std::size_t i = 0; i < candidates.count; ++i) {
+        Candidate& c = candidates.items[i];
+        if (!c.tried && (best == nullptr || c.duration_s < best->duration_s)) best = &c;
+      }
+      if (best == nullptr) break;
+      best->tried = true;
+      out.truncate(brake_phases);
+      built = build(*best, s, target_position, limits, out);
     }
-    if (best == nullptr) break;
-    best->tried = true;
-    out.truncate(brake_phases);
-    built = build(*best, s, target_position, limits, out);
   }
   if (!built) {
     out.truncate(brake_phases);
@@ -555,9 +632,7 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
   if (stretch != nullptr) {
     Stretch& st = *stretch;
     st.min_s = out.duration();
-    const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, limits.max_acceleration,
-                                                limits.max_jerk);
-    st.side = d - apply({0.0, s.velocity, s.acceleration}, stop).position >= 0.0 ? 1.0 : -1.0;
+    st.side = side;
     st.peak_end = 0.0;
     st.stretch_from_s = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < candidates.count; ++i) {
@@ -596,24 +671,33 @@ CalculationResult stretch_to(const Stretch& st, double target_position, const Jo
   double f_lo = stretch_error(st, lim, lo, after_s), f_hi = stretch_error(st, lim, hi, after_s);
   double u = f_lo >= 0.0 ? lo : hi;
   if (f_lo < 0.0 && f_hi > 0.0) {
+    // Regula falsi with the Anderson-Björck correction (the retained end's value is scaled down
+    // when the same end is kept twice), which converges superlinearly on this smooth error.
     int side = 0;
-    for (int i = 0; i < 200; ++i) {
+    for (int i = 0; i < 100; ++i) {
       u = (f_lo * hi - f_hi * lo) / (f_lo - f_hi);
-      if (!(u > lo && u < hi) || i % 4 == 3) u = lo + (hi - lo) / 2.0;
+      if (!(u > lo && u < hi)) u = lo + (hi - lo) / 2.0;
       if (u <= lo || u >= hi) break;
       const double f = stretch_error(st, lim, u, after_s);
       if (f == 0.0) break;
       if (f < 0.0) {
+        if (side == -1) {
+          const double m = 1.0 - f / f_lo;
+          f_hi *= m > 0.0 ? m : 0.5;
+        }
         lo = u;
         f_lo = f;
-        if (side == -1) f_hi /= 2.0;
         side = -1;
       } else {
+        if (side == 1) {
+          const double m = 1.0 - f / f_hi;
+          f_lo *= m > 0.0 ? m : 0.5;
+        }
         hi = u;
         f_hi = f;
-        if (side == 1) f_lo /= 2.0;
         side = 1;
       }
+      if (!(hi - lo > 4.0 * std::numeric_limits<double>::epsilon() * hi)) break;
     }
     if (!(u > lo && u < hi)) u = std::abs(f_lo) <= std::abs(f_hi) ? lo : hi;
   }
