@@ -567,6 +567,7 @@ struct Stretch {
   double side = 1.0;             //!< sign of the cruise velocity of stretched profiles
   double peak_end = 0.0;         //!< [m/s] largest |vp| of the stretchable branch
   double stretch_from_s = 0.0;   //!< [s] shortest stretched duration, pre-phase included
+  double stop_distance = 0.0;    //!< [m] of the time-optimal stop from `start`
 };
 
 CalculationResult time_optimal(const JointState& start, double target_position, const JointLimits& limits,
@@ -582,7 +583,7 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
 
   const double d = target_position - s.position;
   const double brake_s = out.duration();
-  if (stretch != nullptr) *stretch = {s, brake_s, brake_s, d, 1.0, 0.0, brake_s};
+  if (stretch != nullptr) *stretch = {s, brake_s, brake_s, d, 1.0, 0.0, brake_s, 0.0};
   if (d == 0.0 && s.velocity == 0.0 && s.acceleration == 0.0) return {};
   // The time-optimal stop decides which way the target lies from where the joint would stop. The
   // fastest profile is then the UDDU of that direction (in a million random problems of the
@@ -637,6 +638,7 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
     Stretch& st = *stretch;
     st.min_s = out.duration();
     st.side = side;
+    st.stop_distance = stop_distance;
     st.peak_end = 0.0;
     st.stretch_from_s = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < candidates.count; ++i) {
@@ -672,7 +674,10 @@ CalculationResult stretch_to(const Stretch& st, double target_position, const Jo
                              Profile& out) noexcept {
   const double after_s = duration_s - st.brake_s;
   double lo = 0.0, hi = st.peak_end;
-  double f_lo = stretch_error(st, lim, lo, after_s), f_hi = stretch_error(st, lim, hi, after_s);
+  // The ends' errors in closed form: at u = 0 the profile is the stop; at the branch end the
+  // no-cruise profile reaches the target, and the time left is cruised at the peak velocity.
+  double f_lo = st.side * (st.stop_distance - st.distance);
+  double f_hi = hi * (after_s - (st.stretch_from_s - st.brake_s));
   double u = f_lo >= 0.0 ? lo : hi;
   if (f_lo < 0.0 && f_hi > 0.0) {
     // Regula falsi with the Anderson-Björck correction (the retained end's value is scaled down
@@ -683,7 +688,9 @@ CalculationResult stretch_to(const Stretch& st, double target_position, const Jo
       if (!(u > lo && u < hi)) u = lo + (hi - lo) / 2.0;
       if (u <= lo || u >= hi) break;
       const double f = stretch_error(st, lim, u, after_s);
-      if (f == 0.0) break;
+      // f is the end position error [m] of the profile that would be built: a hundredth of the
+      // guaranteed 1e-8 is enough.
+      if (std::abs(f) <= 1e-10) break;
       if (f < 0.0) {
         if (side == -1) {
           const double m = 1.0 - f / f_lo;
@@ -703,7 +710,7 @@ CalculationResult stretch_to(const Stretch& st, double target_position, const Jo
       }
       if (!(hi - lo > 4.0 * std::numeric_limits<double>::epsilon() * hi)) break;
     }
-    if (!(u > lo && u < hi)) u = std::abs(f_lo) <= std::abs(f_hi) ? lo : hi;
+    if (!(u >= lo && u <= hi)) u = std::abs(f_lo) <= std::abs(f_hi) ? lo : hi;
   }
   const double vp = st.side * u;
   out.truncate(out.brake_phase_count);
