@@ -220,16 +220,9 @@ constexpr std::size_t kMaxCandidates = 32;
 struct Candidates {
   std::array<Candidate, kMaxCandidates> items{};
   std::size_t count = 0;
-  //! [s] the fastest so far; a type whose durations are all longer is not solved (when `prune`).
-  double best_s = std::numeric_limits<double>::infinity();
-  bool prune = true;
   void add(const Candidate& c) noexcept {
-    if (count < items.size() && std::isfinite(c.duration_s)) {
-      items[count++] = c;
-      best_s = std::min(best_s, c.duration_s);
-    }
+    if (count < items.size() && std::isfinite(c.duration_s)) items[count++] = c;
   }
-  [[nodiscard]] bool beaten(double lower_bound_s) const noexcept { return prune && lower_bound_s > best_s; }
 };
 
 //! Tolerances of the validity checks on a candidate: durations a rounding below zero are empty
@@ -279,9 +272,7 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     if (c < 0.0) lo = std::max(lo, std::sqrt(-c));
     if (A * A - c < 0.0) hi = lo - 1.0;
     else hi = std::min(hi, std::sqrt(A * A - c));
-    // The duration (2x - a0 - 2z)/J grows with x: its least value is at lo.
-    const bool beaten = out.beaten((2.0 * lo - a0 + 2.0 * std::sqrt(std::max(lo * lo + c, 0.0))) / J);
-    const int n = beaten ? 0 : real_roots(coef, 4, lo, hi, roots.data());
+    const int n = real_roots(coef, 4, lo, hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, -1.0);
       const double z = -std::sqrt(std::max(x * x + c, 0.0));
@@ -299,9 +290,7 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
                                 12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2,
                             0.0, 12.0 * A * A, -24.0 * A, 12.0};
-    // The duration falls as z rises: its least value is at z = 0.
-    const bool beaten = out.beaten((2.0 * A - a0) / J + std::max((-A * A - c) / (A * J), 0.0));
-    const int n = beaten ? 0 : real_roots(coef, 4, -A, 0.0, roots.data());
+    const int n = real_roots(coef, 4, -A, 0.0, roots.data());
     for (int i = 0; i < n; ++i) {
       const double z = roots[static_cast<std::size_t>(i)];
       const double t1 = (z * z - A * A - c) / (A * J);
@@ -317,10 +306,8 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared + 12.0 * J_2 * v0_2 -
                                 12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
                             24.0 * A * k, 12.0 * (A * A + k), 24.0 * A, 12.0};
-    // The duration grows with x: its least value is at the lower end.
     const double lo = std::max(a0, -A);
-    const bool beaten = out.beaten((2.0 * lo - a0 + 2.0 * A) / J + std::max((lo * lo - A * A + c) / (A * J), 0.0));
-    const int n = beaten ? 0 : real_roots(coef, 4, lo, A, roots.data());
+    const int n = real_roots(coef, 4, lo, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = roots[static_cast<std::size_t>(i)];
       const double t5 = (x * x - A * A + c) / (A * J);
@@ -439,7 +426,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
                             2.0 / 3.0 * k * h, -7.0 / 4.0 * k * k, 2.0 / 3.0 * h, -7.0 / 2.0 * k, 0.0, -2.0};
     const double lo = std::max(x_lo, std::sqrt(std::max(-c - A * A, 0.0)));
     const double hi = std::min(A, std::sqrt(-c));
-    const int n = out.beaten((2.0 * lo - a0) / J) ? 0 : real_roots(coef, 6, lo, hi, roots.data());
+    const int n = real_roots(coef, 6, lo, hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, 1.0);
       const double w = std::sqrt(std::max(-(x * x + c), 0.0));
@@ -452,7 +439,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   // ACC0: x = A; unknown w in [0, A]; t1 = -(A^2 + c + w^2)/(A J).
   {
     const double coef[5] = {plateau_c0, 0.0, -12.0 * A * A, -24.0 * A, 12.0};
-    const int n = out.beaten((2.0 * A - a0) / J) ? 0 : real_roots(coef, 4, 0.0, A, roots.data());
+    const int n = real_roots(coef, 4, 0.0, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double w = roots[static_cast<std::size_t>(i)];
       const double t1 = -(A * A + c + w * w) / (A * J);
@@ -464,7 +451,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   {
     const double k = 2.0 * J * v0 - a0_2;
     const double coef[5] = {plateau_c0, 24.0 * A * k, -12.0 * (k - A * A), 24.0 * A, -12.0};
-    const int n = out.beaten((2.0 * x_lo - a0 + 2.0 * A) / J) ? 0 : real_roots(coef, 4, x_lo, A, roots.data());
+    const int n = real_roots(coef, 4, x_lo, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = roots[static_cast<std::size_t>(i)];
       const double t5 = -(A * A + c + x * x) / (A * J);
@@ -586,9 +573,9 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
   if (stretch != nullptr) *stretch = {s, brake_s, brake_s, d, 1.0, 0.0, brake_s, 0.0};
   if (d == 0.0 && s.velocity == 0.0 && s.acceleration == 0.0) return {};
   // The time-optimal stop decides which way the target lies from where the joint would stop. The
-  // fastest profile is then the UDDU of that direction (in a million random problems of the
-  // property test no other type won where it had a profile that built), so it alone is solved
-  // first, and every type of both directions only if none of its profiles builds.
+  // fastest profile is then a UDDU of that direction (with every type solved, no other type was
+  // faster in a million random problems of the property test), so those are solved first, and
+  // every type of both directions only if none of them builds (never, in those problems).
   const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, limits.max_acceleration,
                                               limits.max_jerk);
   const double stop_distance = apply({0.0, s.velocity, s.acceleration}, stop).position;
@@ -598,7 +585,6 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
   bool built = false;
   for (int pass = 0; pass < 2 && !built; ++pass) {
     candidates = Candidates{};
-    candidates.prune = false;
     // A target where the stop ends: every type below meets it only at the end of its interval (a
     // ramp of zero length), where rounding may lose it. No move to rest is faster.
     if (std::abs(stop_distance - d) <= 1e-9) {
@@ -611,7 +597,6 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
       udud_candidates(-side * s.velocity, -side * s.acceleration, -side * d, limits, -side, candidates);
     }
     if (pass == 1) {
-      candidates.prune = true;
       uddu_candidates(-side * s.velocity, -side * s.acceleration, -side * d, limits, -side, candidates);
       udud_candidates(side * s.velocity, side * s.acceleration, side * d, limits, side, candidates);
     }
