@@ -55,7 +55,9 @@ JointState apply(const JointState& s, const VelocityChange& c) noexcept {
 //! nearly double roots are not lost to the cancellation of the closed-form quartic formulas.
 constexpr int kMaxDegree = 6;
 
-double poly_eval(const double* c, int n, double x) noexcept {
+// The degree is a template parameter so that the loops over the coefficients unroll.
+template <int n>
+double poly_eval(const double* c, double x) noexcept {
   double r = c[n];
   for (int k = n - 1; k >= 0; --k) r = r * x + c[k];
   return r;
@@ -63,7 +65,8 @@ double poly_eval(const double* c, int n, double x) noexcept {
 
 //! The root of c in [a, b], where the values at a (fa) and b (fb) differ in sign: Newton steps from
 //! the secant point, a bisection whenever a step would leave the bracket.
-double polish(const double* c, int n, double a, double fa, double b, double fb, double rel_tol) noexcept {
+template <int n>
+double polish(const double* c, double a, double fa, double b, double fb, double rel_tol) noexcept {
   double x = (a * fb - b * fa) / (fb - fa);
   if (!(x > a && x < b)) x = a + (b - a) / 2.0;
   // Relative to the bracket's magnitude, so that a root at or near zero stops as soon as one
@@ -99,7 +102,8 @@ double polish(const double* c, int n, double a, double fa, double b, double fb, 
 //! True when c certainly has no root in [lo, hi]: the value at the midpoint exceeds what the other
 //! Taylor terms can change it by over the half-width. Most profile types have no root in their
 //! interval; this skips them without isolating the critical points.
-bool no_root(const double* c, int n, double lo, double hi) noexcept {
+template <int n>
+bool no_root(const double* c, double lo, double hi) noexcept {
   const double m = lo + (hi - lo) / 2.0, r = (hi - lo) / 2.0;
   std::array<double, kMaxDegree + 1> t{};  // Taylor coefficients at m, by repeated synthetic division
   for (int k = 0; k <= n; ++k) t[static_cast<std::size_t>(k)] = c[k];
@@ -114,19 +118,35 @@ bool no_root(const double* c, int n, double lo, double hi) noexcept {
   return std::abs(t[0]) > bound * (1.0 + 1e-12);
 }
 
+// real_roots strips zero leading coefficients, real_roots_of_degree solves degrees 1 and 2 in
+// closed form, isolated_roots the others between critical points.
+template <int n>
+int real_roots_of_degree(const double* c, double lo, double hi, double* out, double rel_tol) noexcept;
+template <int n>
+int isolated_roots(const double* c, double lo, double hi, double* out, double rel_tol) noexcept;
+
 //! rel_tol: the relative step at which polishing stops; the critical points of the level above only
 //! isolate its roots and need less than full precision.
-int real_roots(const double* c, int n, double lo, double hi, double* out,
+template <int n>
+int real_roots(const double* c, double lo, double hi, double* out,
                double rel_tol = 4.0 * std::numeric_limits<double>::epsilon()) noexcept {
-  while (n > 0 && c[n] == 0.0) --n;
-  if (n == 0 || !(lo <= hi)) return 0;
-  if (n == 1) {
+  if constexpr (n == 0) {
+    return 0;
+  } else {
+    if (c[n] == 0.0) return real_roots<n - 1>(c, lo, hi, out, rel_tol);
+    if (!(lo <= hi)) return 0;
+    return real_roots_of_degree<n>(c, lo, hi, out, rel_tol);
+  }
+}
+
+template <int n>
+int real_roots_of_degree(const double* c, double lo, double hi, double* out, double rel_tol) noexcept {
+  if constexpr (n == 1) {
     const double x = -c[0] / c[1];
     if (!(x >= lo && x <= hi)) return 0;
     out[0] = x;
     return 1;
-  }
-  if (n == 2) {
+  } else if constexpr (n == 2) {
     // The stable quadratic formula; a slightly negative discriminant is a double root lifted off
     // the axis by rounding.
     const double disc = c[1] * c[1] - 4.0 * c[2] * c[0];
@@ -146,24 +166,30 @@ int real_roots(const double* c, int n, double lo, double hi, double* out,
       if (x[static_cast<std::size_t>(i)] >= lo && x[static_cast<std::size_t>(i)] <= hi) out[count++] = x[static_cast<std::size_t>(i)];
     }
     return count;
+  } else {
+    return isolated_roots<n>(c, lo, hi, out, rel_tol);
   }
-  if (no_root(c, n, lo, hi)) return 0;
-  std::array<double, kMaxDegree> dc{};
+}
+
+template <int n>
+int isolated_roots(const double* c, double lo, double hi, double* out, double rel_tol) noexcept {
+  if (no_root<n>(c, lo, hi)) return 0;
+  std::array<double, n> dc{};
   for (int k = 0; k < n; ++k) dc[static_cast<std::size_t>(k)] = (k + 1) * c[k + 1];
-  std::array<double, kMaxDegree + 1> cuts{};
+  std::array<double, n + 1> cuts{};
   cuts[0] = lo;
-  const int m = real_roots(dc.data(), n - 1, lo, hi, cuts.data() + 1, 1e-10);
+  const int m = real_roots<n - 1>(dc.data(), lo, hi, cuts.data() + 1, 1e-10);
   cuts[static_cast<std::size_t>(m) + 1] = hi;
   int count = 0;
-  double fa = poly_eval(c, n, lo);
+  double fa = poly_eval<n>(c, lo);
   if (fa == 0.0) out[count++] = lo;
   for (int i = 0; i <= m && count < n; ++i) {
     const double a = cuts[static_cast<std::size_t>(i)], b = cuts[static_cast<std::size_t>(i) + 1];
-    const double fb = poly_eval(c, n, b);
+    const double fb = poly_eval<n>(c, b);
     if (fb == 0.0) {
       out[count++] = b;
     } else if (fa != 0.0 && (fa < 0.0) != (fb < 0.0)) {
-      out[count++] = polish(c, n, a, fa, b, fb, rel_tol);
+      out[count++] = polish<n>(c, a, fa, b, fb, rel_tol);
     } else if (i < m) {
       // A critical point whose value is zero up to rounding: a double root that rounding lifted off
       // the axis. Accepting it is safe, every candidate is checked when it is built.
@@ -272,7 +298,7 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     if (c < 0.0) lo = std::max(lo, std::sqrt(-c));
     if (A * A - c < 0.0) hi = lo - 1.0;
     else hi = std::min(hi, std::sqrt(A * A - c));
-    const int n = real_roots(coef, 4, lo, hi, roots.data());
+    const int n = real_roots<4>(coef, lo, hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, -1.0);
       const double z = -std::sqrt(std::max(x * x + c, 0.0));
@@ -290,7 +316,7 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
                                 12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2,
                             0.0, 12.0 * A * A, -24.0 * A, 12.0};
-    const int n = real_roots(coef, 4, -A, 0.0, roots.data());
+    const int n = real_roots<4>(coef, -A, 0.0, roots.data());
     for (int i = 0; i < n; ++i) {
       const double z = roots[static_cast<std::size_t>(i)];
       const double t1 = (z * z - A * A - c) / (A * J);
@@ -307,7 +333,7 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
                                 12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
                             24.0 * A * k, 12.0 * (A * A + k), 24.0 * A, 12.0};
     const double lo = std::max(a0, -A);
-    const int n = real_roots(coef, 4, lo, A, roots.data());
+    const int n = real_roots<4>(coef, lo, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = roots[static_cast<std::size_t>(i)];
       const double t5 = (x * x - A * A + c) / (A * J);
@@ -426,7 +452,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
                             2.0 / 3.0 * k * h, -7.0 / 4.0 * k * k, 2.0 / 3.0 * h, -7.0 / 2.0 * k, 0.0, -2.0};
     const double lo = std::max(x_lo, std::sqrt(std::max(-c - A * A, 0.0)));
     const double hi = std::min(A, std::sqrt(-c));
-    const int n = real_roots(coef, 6, lo, hi, roots.data());
+    const int n = real_roots<6>(coef, lo, hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, 1.0);
       const double w = std::sqrt(std::max(-(x * x + c), 0.0));
@@ -439,7 +465,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   // ACC0: x = A; unknown w in [0, A]; t1 = -(A^2 + c + w^2)/(A J).
   {
     const double coef[5] = {plateau_c0, 0.0, -12.0 * A * A, -24.0 * A, 12.0};
-    const int n = real_roots(coef, 4, 0.0, A, roots.data());
+    const int n = real_roots<4>(coef, 0.0, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double w = roots[static_cast<std::size_t>(i)];
       const double t1 = -(A * A + c + w * w) / (A * J);
@@ -451,7 +477,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   {
     const double k = 2.0 * J * v0 - a0_2;
     const double coef[5] = {plateau_c0, 24.0 * A * k, -12.0 * (k - A * A), 24.0 * A, -12.0};
-    const int n = real_roots(coef, 4, x_lo, A, roots.data());
+    const int n = real_roots<4>(coef, x_lo, A, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = roots[static_cast<std::size_t>(i)];
       const double t5 = -(A * A + c + x * x) / (A * J);
