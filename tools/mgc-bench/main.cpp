@@ -14,6 +14,7 @@
 
 #include "bus_bench.hpp"
 #include "kim_bench.hpp"
+#include "loop_bench.hpp"
 #include "planning_bench.hpp"
 #include "safety_bench.hpp"
 #include "trajectory_bench.hpp"
@@ -47,9 +48,10 @@ int main(int argc, char** argv) {
   std::string names;
   int bus_samples = 1500;
   int trajectory_cases = 100000;
+  mgc::bench::LoopBenchOptions loop;
   mgc::bench::OmplOptions ompl;
   for (const auto& [name, run] : planning_suites()) names += std::string(names.empty() ? "" : ", ") + name;
-  app.add_option("--suite", suite_name, "suite to run: " + names + ", all (the planning suites), bus (fieldbus), trajectory, safety or kim (dual crane)");
+  app.add_option("--suite", suite_name, "suite to run: " + names + ", all (the planning suites), bus (fieldbus), trajectory, safety, kim (dual crane) or loop (control cycle)");
   app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51)")
       ->check(CLI::PositiveNumber);
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
@@ -57,6 +59,11 @@ int main(int argc, char** argv) {
   app.add_option("--scenarios", scenarios_dir, "folder of the shipped scenarios");
   app.add_option("--bus-samples", bus_samples, "bus suite: SYNC round trips per latency case")->check(CLI::PositiveNumber);
   app.add_option("--trajectory-cases", trajectory_cases, "trajectory suite: calculations per case")->check(CLI::PositiveNumber);
+  app.add_option("--loop-cycles", loop.cycles, "loop suite: timed controller cycles at 100 Hz")->check(CLI::PositiveNumber);
+  app.add_option("--reaction-runs", loop.reaction_runs, "loop suite: intrusion runs per control rate (100 Hz, 500 Hz)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--loop-seconds", loop.loop_seconds, "loop suite: seconds of the live cyclic executive (0: skip)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--ompl-time-limit", ompl.time_limit_s, "OMPL: seconds per query before it counts as a failure")
       ->check(CLI::PositiveNumber);
   app.add_option("--ompl-range", ompl.range_steps, "OMPL RRT/RRTConnect extension length in steps; 0: our extend step")
@@ -71,6 +78,12 @@ int main(int argc, char** argv) {
   if (suite_name == "bus") return mgc::bench::run_bus_suite({scenarios_dir, out_dir, bus_samples});
   if (suite_name == "trajectory") return mgc::bench::run_trajectory_suite({out_dir, trajectory_cases, first_seed});
   if (suite_name == "safety") return mgc::bench::run_safety_suite({scenarios_dir, out_dir});
+  if (suite_name == "loop") {
+    loop.scenarios_dir = scenarios_dir;
+    loop.out_dir = out_dir;
+    loop.first_seed = first_seed;
+    return mgc::bench::run_loop_suite(loop);
+  }
   if (suite_name == "kim") return mgc::bench::run_kim_suite({scenarios_dir, out_dir, runs, first_seed});
   std::vector<std::pair<std::string, PlanningSuite>> chosen;
   for (const auto& suite : planning_suites()) {
@@ -78,7 +91,7 @@ int main(int argc, char** argv) {
     if ((suite_name == "all" && suite.first != "replan") || suite_name == suite.first) chosen.push_back(suite);
   }
   if (chosen.empty()) {
-    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, all, bus, trajectory, safety, kim; got '%s'\n", names.c_str(), suite_name.c_str());
+    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, all, bus, trajectory, safety, kim, loop; got '%s'\n", names.c_str(), suite_name.c_str());
     return 2;
   }
   // OMPL's global seed takes effect only before its first random generator exists: set it now.
