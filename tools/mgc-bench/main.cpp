@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
   app.add_option("--bus-samples", bus_samples, "bus suite: SYNC round trips per latency case")->check(CLI::PositiveNumber);
   app.add_option("--trajectory-cases", trajectory_cases, "trajectory suite: calculations per case")->check(CLI::PositiveNumber);
   app.add_option("--loop-cycles", loop.cycles, "loop suite: timed controller cycles at 100 Hz")->check(CLI::PositiveNumber);
-  app.add_option("--reaction-runs", loop.reaction_runs, "loop suite: intrusion runs per control rate (100 Hz, 500 Hz)")
+  app.add_option("--reaction-runs", loop.reaction_runs, "loop suite: intrusion runs per reaction case (100 Hz and 500 Hz with the tags at 10 Hz, 100 Hz with them at 100 Hz)")
       ->check(CLI::PositiveNumber);
   app.add_option("--loop-seconds", loop.loop_seconds, "loop suite: seconds of the live cyclic executive (0: skip)")
       ->check(CLI::NonNegativeNumber);
