@@ -33,16 +33,16 @@ if chrt -f 1 true 2>/dev/null; then
   mgc_rt=(--fifo-priority 50 --mlock)
 fi
 echo "=== the lift on the thesis steel-frame site: mgc-sim (UDP on loopback) + mgc + mgc-operator over LCM"
-echo "    crane 2 swings into the west route 50 s into the lift (mgc-sim --scenario-time-offset 10)"
+echo "    crane 2 swings its boom across the west route 20-44 s into the lift (mgc-sim --scenario-time-offset 40)"
 lcm-logger -q -f --lcm-url="$lcm_url" "$out/mgc.lcmlog" &
 logger_pid=$!
-"${sim_rt[@]}" "$bin/mgc-sim" --scenario "$site" --scenario-time-offset 10 --duration 220 --quiet \
+"${sim_rt[@]}" "$bin/mgc-sim" --scenario "$site" --scenario-time-offset 40 --duration 420 --quiet \
   --truth-csv "$out/truth.csv" &
 sim_pid=$!
-"$bin/mgc" --scenario "$site" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 200 \
+"$bin/mgc" --scenario "$site" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 400 \
   --trace-csv "$out/trace.csv" "${mgc_rt[@]}" >"$out/mgc.txt" 2>&1 &
 mgc_pid=$!
-"$bin/mgc-operator" --key "$key" --lcm-url "$lcm_url" --scenario "$site" --goal --watch 200 --until-done || status=$?
+"$bin/mgc-operator" --key "$key" --lcm-url "$lcm_url" --scenario "$site" --goal --watch 400 --until-done || status=$?
 mgc_status=0
 wait "$mgc_pid" || mgc_status=$?
 kill "$sim_pid" "$logger_pid" 2>/dev/null || true
