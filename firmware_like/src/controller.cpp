@@ -24,6 +24,8 @@ constexpr double kReachedTolerance = 1e-6;
 //! A joint cannot move faster than this multiple of its rated speed: an estimate beyond it is a
 //! timing artefact, not motion. [-]
 constexpr double kPlausibleSpeedFactor = 1.5;
+//! An alert stays raised this long after its condition was last seen. [µs]
+constexpr std::int64_t kAlertHoldUs = 1'000'000;
 
 //! Longest time-optimal stop of any joint from its full speed. [s]
 double longest_stop_s(const planning::MachineModel& model) {
@@ -480,9 +482,12 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
 void Controller::raise(std::size_t kind, bool active, std::int8_t severity, std::int8_t source, std::int8_t clear,
                        std::int8_t unit, double value, double limit, std::int32_t index) noexcept {
   if (!active) {
-    alert_active_[kind] = false;
+    // Held a while after its condition clears, so that a condition flickering from cycle to cycle
+    // (a clearance on its margin) stays one alert rather than a new one every cycle.
+    if (alert_active_[kind] && now_us_ - alert_seen_us_[kind] >= kAlertHoldUs) alert_active_[kind] = false;
     return;
   }
+  alert_seen_us_[kind] = now_us_;
   SnapshotAlert& a = alerts_[kind];
   // A new id when the condition is raised anew or its severity changes.
   if (!alert_active_[kind] || a.severity != severity) a.alert_id = next_alert_id_++;

@@ -175,7 +175,8 @@ std::string render_svg(const SvgInput& in) {
   svg << "<text x=\"" << kPanelPx + 10 << "\" y=\"" << kPanelPx + 20 << "\">side view (x, z), "
       << static_cast<int>(std::lround(span)) << " m across</text>\n";
   svg << "<text x=\"10\" y=\"" << kPanelPx + 45 << "\">" << scenario.name
-      << ": obstacles grey, moving obstacles orange (at t = 0), machine at start blue and at goal green, "
+      << ": obstacles grey, moving obstacles orange (" << (in.dynamic_poses.empty() ? "at t = 0" : in.dynamic_poses_label)
+      << "), machine at start blue and at goal green, "
       << (model.kind() == planning::MachineKind::Excavator ? "bucket-tip" : "hook") << " path red"
       << (in.tree_nodes.empty() ? "" : ", tree grey lines") << "</text>\n";
   svg << "</svg>\n";

@@ -19,6 +19,7 @@ struct SvgInput {
   planning::JointVector step;  //!< path sampling resolution [rad | m]
   //! Where to draw the dynamic obstacles, in scenario order; empty: where the scenario has them at t = 0.
   std::vector<Eigen::Isometry3d> dynamic_poses;
+  std::string dynamic_poses_label = "as tracked at the end";  //!< the caption's words for dynamic_poses
 };
 
 //! Top view (x right, y up) and side view (x right, z up), side by side, as one SVG document.

@@ -212,6 +212,7 @@ class Controller {
   static constexpr std::size_t kAlertKinds = 7;
   std::array<SnapshotAlert, kAlertKinds> alerts_{};
   std::array<bool, kAlertKinds> alert_active_{};
+  std::array<std::int64_t, kAlertKinds> alert_seen_us_{};  //!< when each condition was last true [µs]
   std::int32_t next_alert_id_ = 1;
   std::int64_t rejected_until_us_ = 0;
 
