@@ -23,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "latency_stats.hpp"
 #include "mgc/hal/bus_plan.hpp"
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/canopen.hpp"
@@ -67,30 +68,6 @@ void sleep_until_ns(std::int64_t t_ns) {
   std::this_thread::sleep_until(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(t_ns)));
 }
 
-//! Nearest-rank percentile, as the planning suites compute theirs.
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const double rank = std::ceil(p * static_cast<double>(values.size())) - 1.0;
-  const auto index = static_cast<std::size_t>(std::clamp(rank, 0.0, static_cast<double>(values.size() - 1)));
-  return values[index];
-}
-
-struct Stats {
-  std::size_t n = 0;
-  double median = 0.0, p95 = 0.0, p99 = 0.0, p999 = 0.0, max = 0.0;
-};
-
-Stats stats_of(const std::vector<double>& v) {
-  Stats s;
-  s.n = v.size();
-  s.median = percentile(v, 0.5);
-  s.p95 = percentile(v, 0.95);
-  s.p99 = percentile(v, 0.99);
-  s.p999 = percentile(v, 0.999);
-  s.max = v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
-  return s;
-}
 
 //! Raw values for bus.csv: one row per sample or step.
 class Csv {
@@ -527,7 +504,7 @@ int run_bus_suite(const BusBenchOptions& options) {
           "|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const Transport transport : {Transport::Loop, Transport::Udp}) {
       for (const ReadCost& c : read_cost(transport, traffic, 2000)) {
-        const Stats s = stats_of(c.read_us);
+        const LatencyStats s = latency_stats(c.read_us);
         md += fmt("| %s | %zu | %zu | %.1f | %.1f | %.1f | %.1f | %.3f | %.2f %% | %llu | %llu |\n", to_string(transport),
                   c.frames_per_read, s.n, s.median, s.p95, s.p99, s.max, s.median / static_cast<double>(c.frames_per_read),
                   100.0 * s.p99 / static_cast<double>(kControlCycleUs), static_cast<unsigned long long>(c.short_reads),
@@ -547,8 +524,8 @@ int run_bus_suite(const BusBenchOptions& options) {
       for (const Receiver receiver : {Receiver::Blocking, Receiver::Polling}) {
         std::fprintf(stderr, "[bus] latency %s, %s\n", to_string(transport), to_string(receiver));
         const Latency l = latency(transport, receiver, scenario, options.latency_samples);
-        const Stats s = stats_of(l.send_to_snapshot_us);
-        const Stats rt = stats_of(l.sync_to_snapshot_us);
+        const LatencyStats s = latency_stats(l.send_to_snapshot_us);
+        const LatencyStats rt = latency_stats(l.sync_to_snapshot_us);
         md += fmt("| %s | %s | %zu | %llu | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", to_string(transport),
                   to_string(receiver), s.n, static_cast<unsigned long long>(l.missed), s.median, s.p95, s.p99, s.p999,
                   s.max, rt.median, rt.p99);

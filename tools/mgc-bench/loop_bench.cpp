@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "latency_stats.hpp"
 #include "mgc/firmware/controller.hpp"
 #include "mgc/firmware/cyclic_executive.hpp"
 #include "mgc/hal/can_bus.hpp"
@@ -64,30 +65,6 @@ std::int64_t now_ns() noexcept {
 
 double sim_s(std::int64_t t_us) { return static_cast<double>(t_us - kSimZeroUs) * 1e-6; }
 
-//! Nearest-rank percentile, as the other suites compute theirs.
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const double rank = std::ceil(p * static_cast<double>(values.size())) - 1.0;
-  const auto index = static_cast<std::size_t>(std::clamp(rank, 0.0, static_cast<double>(values.size() - 1)));
-  return values[index];
-}
-
-struct Stats {
-  std::size_t n = 0;
-  double median = 0.0, p95 = 0.0, p99 = 0.0, p999 = 0.0, max = 0.0;
-};
-
-Stats stats_of(const std::vector<double>& v) {
-  Stats s;
-  s.n = v.size();
-  s.median = percentile(v, 0.5);
-  s.p95 = percentile(v, 0.95);
-  s.p99 = percentile(v, 0.99);
-  s.p999 = percentile(v, 0.999);
-  s.max = v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
-  return s;
-}
 
 std::string load_average() {
   std::ifstream in("/proc/loadavg");
@@ -110,7 +87,7 @@ std::string load_average() {
   return text;
 }
 
-std::string stats_row(const std::string& what, const Stats& s) {
+std::string stats_row(const std::string& what, const LatencyStats& s) {
   return fmt("| %s | %zu | %.1f | %.1f | %.1f | %.1f | %.1f |\n", what.c_str(), s.n, s.median, s.p95, s.p99, s.p999, s.max);
 }
 
@@ -446,8 +423,8 @@ int run_loop_suite(const LoopBenchOptions& options) {
                  rec.planner_slice ? 1 : 0, rec.stop_samples, rec.cycle.read_us, rec.cycle.step_us, rec.cycle.write_us, total,
                  cpu);
     }
-    const Stats s_all = stats_of(all);
-    const Stats s_cpu = stats_of(cpu_all);
+    const LatencyStats s_all = latency_stats(all);
+    const LatencyStats s_cpu = latency_stats(cpu_all);
     md += "#### Cycle compute time: Hal::read + Controller::step + Hal::write at 100 Hz\n\n";
     std::string lifts;
     for (std::size_t i = 0; i < cr.lift_s.size(); ++i) lifts += fmt("%s%.0f s", i ? ", " : "", cr.lift_s[i]);
@@ -464,22 +441,22 @@ int run_loop_suite(const LoopBenchOptions& options) {
     md += "Wall time (steady_clock):\n\n";
     md += kStatsHeader;
     md += stats_row("all", s_all);
-    md += stats_row("EXECUTING", stats_of(executing));
-    md += stats_row("PLANNING / REPLANNING", stats_of(planning_cycles));
-    md += stats_row("other (INIT, HOLD, STOPPING, FAULT, ESTOP)", stats_of(other));
-    md += stats_row("with a planner slice", stats_of(slice));
-    md += stats_row("without a planner slice", stats_of(no_slice));
-    for (const Band& b : bands) md += stats_row(std::string("EXECUTING, stop check took ") + b.name + " samples", stats_of(b.wall));
-    md += stats_row("part: Hal::read", stats_of(read));
-    md += stats_row("part: Controller::step", stats_of(step));
-    md += stats_row("part: Hal::write", stats_of(write));
+    md += stats_row("EXECUTING", latency_stats(executing));
+    md += stats_row("PLANNING / REPLANNING", latency_stats(planning_cycles));
+    md += stats_row("other (INIT, HOLD, STOPPING, FAULT, ESTOP)", latency_stats(other));
+    md += stats_row("with a planner slice", latency_stats(slice));
+    md += stats_row("without a planner slice", latency_stats(no_slice));
+    for (const Band& b : bands) md += stats_row(std::string("EXECUTING, stop check took ") + b.name + " samples", latency_stats(b.wall));
+    md += stats_row("part: Hal::read", latency_stats(read));
+    md += stats_row("part: Controller::step", latency_stats(step));
+    md += stats_row("part: Hal::write", latency_stats(write));
     md += "\nThread CPU time over the same calls:\n\n";
     md += kStatsHeader;
     md += stats_row("all", s_cpu);
-    md += stats_row("EXECUTING", stats_of(cpu_executing));
-    md += stats_row("PLANNING / REPLANNING", stats_of(cpu_planning));
-    md += stats_row("other (INIT, HOLD, STOPPING, FAULT, ESTOP)", stats_of(cpu_other));
-    for (const Band& b : bands) md += stats_row(std::string("EXECUTING, stop check took ") + b.name + " samples", stats_of(b.cpu));
+    md += stats_row("EXECUTING", latency_stats(cpu_executing));
+    md += stats_row("PLANNING / REPLANNING", latency_stats(cpu_planning));
+    md += stats_row("other (INIT, HOLD, STOPPING, FAULT, ESTOP)", latency_stats(cpu_other));
+    for (const Band& b : bands) md += stats_row(std::string("EXECUTING, stop check took ") + b.name + " samples", latency_stats(b.cpu));
     md += fmt("\n%zu cycles (%.2f %%) lost more than 200 µs of wall time to other processes (wall − CPU; median of those %.0f µs, "
               "max %.0f µs).\n",
               preempted, 100.0 * static_cast<double>(preempted) / static_cast<double>(std::max<std::size_t>(1, all.size())),
@@ -556,7 +533,7 @@ int run_loop_suite(const LoopBenchOptions& options) {
         age_ms.push_back(r.frame_age_us * 1e-3);
         compute.push_back(r.compute_us);
       }
-      const Stats s = stats_of(reaction_ms);
+      const LatencyStats s = latency_stats(reaction_ms);
       const double target_ms = static_cast<double>(rc.cycle_us) * 1e-3 + 1.0;
       md += fmt("| %.0f Hz | %.0f Hz | %d | %d | %d | %.2f | %.0f | %.0f | %.2f | %.2f | %.2f | %.0f ms: %s | %zu | %.2f | %.2f |\n",
                 rate_hz, rc.uwb_rate_hz, options.reaction_runs, stopped, completed, percentile(age_ms, 0.5), percentile(compute, 0.5),
