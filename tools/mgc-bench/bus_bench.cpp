@@ -23,7 +23,7 @@
 #include <thread>
 #include <vector>
 
-#include "latency_stats.hpp"
+#include "timing_report.hpp"
 #include "mgc/hal/bus_plan.hpp"
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/canopen.hpp"
@@ -67,7 +67,6 @@ std::int64_t bus_now_us() noexcept { return hal::SteadyClock::instance().now_us(
 void sleep_until_ns(std::int64_t t_ns) {
   std::this_thread::sleep_until(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(t_ns)));
 }
-
 
 //! Raw values for bus.csv: one row per sample or step.
 class Csv {
@@ -430,23 +429,6 @@ Latency latency(Transport transport, Receiver receiver, const planning::Scenario
 }
 
 // --- Report -----------------------------------------------------------------------------------
-
-//! /proc/loadavg's first three fields: how busy the shared machine was around the run.
-std::string load_average() {
-  std::ifstream in("/proc/loadavg");
-  std::string one, five, fifteen;
-  if (!(in >> one >> five >> fifteen)) return "unknown";
-  return one + " " + five + " " + fifteen;
-}
-
-[[gnu::format(printf, 1, 2)]] std::string fmt(const char* format, ...) {
-  char buf[512];
-  std::va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
-}
 
 }  // namespace
 

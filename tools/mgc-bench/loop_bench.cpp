@@ -26,7 +26,7 @@
 #include <utility>
 #include <vector>
 
-#include "latency_stats.hpp"
+#include "timing_report.hpp"
 #include "mgc/firmware/controller.hpp"
 #include "mgc/firmware/cyclic_executive.hpp"
 #include "mgc/hal/can_bus.hpp"
@@ -64,28 +64,6 @@ std::int64_t now_ns() noexcept {
 }
 
 double sim_s(std::int64_t t_us) { return static_cast<double>(t_us - kSimZeroUs) * 1e-6; }
-
-
-std::string load_average() {
-  std::ifstream in("/proc/loadavg");
-  std::string one, five, fifteen;
-  if (!(in >> one >> five >> fifteen)) return "unknown";
-  return one + " " + five + " " + fifteen;
-}
-
-[[gnu::format(printf, 1, 2)]] std::string fmt(const char* format, ...) {
-  std::va_list args;
-  va_start(args, format);
-  std::va_list copy;
-  va_copy(copy, args);
-  const int n = std::vsnprintf(nullptr, 0, format, copy);
-  va_end(copy);
-  std::string text(static_cast<std::size_t>(std::max(n, 0)) + 1, '\0');
-  std::vsnprintf(text.data(), text.size(), format, args);
-  va_end(args);
-  text.resize(static_cast<std::size_t>(std::max(n, 0)));
-  return text;
-}
 
 std::string stats_row(const std::string& what, const LatencyStats& s) {
   return fmt("| %s | %zu | %.1f | %.1f | %.1f | %.1f | %.1f |\n", what.c_str(), s.n, s.median, s.p95, s.p99, s.p999, s.max);
