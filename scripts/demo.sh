@@ -36,13 +36,13 @@ echo "=== the lift on the thesis steel-frame site: mgc-sim (UDP on loopback) + m
 echo "    crane 2 swings its boom across the west route 20-44 s into the lift (mgc-sim --scenario-time-offset 40)"
 lcm-logger -q -f --lcm-url="$lcm_url" "$out/mgc.lcmlog" &
 logger_pid=$!
-"${sim_rt[@]}" "$bin/mgc-sim" --scenario "$site" --scenario-time-offset 40 --duration 420 --quiet \
+"${sim_rt[@]}" "$bin/mgc-sim" --scenario "$site" --scenario-time-offset 40 --duration 620 --quiet \
   --truth-csv "$out/truth.csv" &
 sim_pid=$!
-"$bin/mgc" --scenario "$site" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 400 \
+"$bin/mgc" --scenario "$site" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 600 \
   --trace-csv "$out/trace.csv" "${mgc_rt[@]}" >"$out/mgc.txt" 2>&1 &
 mgc_pid=$!
-"$bin/mgc-operator" --key "$key" --lcm-url "$lcm_url" --scenario "$site" --goal --watch 400 --until-done || status=$?
+"$bin/mgc-operator" --key "$key" --lcm-url "$lcm_url" --scenario "$site" --goal --watch 600 --until-done || status=$?
 mgc_status=0
 wait "$mgc_pid" || mgc_status=$?
 kill "$sim_pid" "$logger_pid" 2>/dev/null || true
