@@ -143,8 +143,8 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   active_ = replanner_.get();
 
   if (model_->kind() == planning::MachineKind::MobileCrane) {
-    crane_ = dynamic_cast<const planning::MobileCrane*>(model_.get());
-    if (crane_ && scenario_.task) rcl_ = std::make_unique<guidance::RatedCapacityLimiter>(*crane_, config.rated_capacity);
+    const auto* crane = dynamic_cast<const planning::MobileCrane*>(model_.get());
+    if (crane && scenario_.task) rcl_ = std::make_unique<guidance::RatedCapacityLimiter>(*crane, config.rated_capacity);
   }
   for (int j = 0; j < n_; ++j) {
     const planning::JointSpec& spec = model_->joints()[static_cast<std::size_t>(j)];
@@ -469,7 +469,6 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
   }
 
   fill_snapshot(s, out);
-  previous_state_ = out.state;
 
   ControllerOutput result;
   result.velocity = limiter_.velocity();

@@ -42,25 +42,6 @@ struct TraceRow {
   std::array<std::array<double, 4>, 4> obstacle{};  //!< x, y, z [m], yaw [rad] of up to 4 tracked obstacles
 };
 
-//! The bus plan of the scenario's machine, its joints checked against the plan's encoders.
-mgc::hal::BusPlan bus_plan(const mgc::planning::Scenario& scenario) {
-  using mgc::planning::MachineKind;
-  mgc::hal::BusPlan plan;
-  switch (scenario.machine.kind) {
-    case MachineKind::MobileCrane: plan = mgc::hal::mobile_crane_bus_plan(); break;
-    case MachineKind::TowerCrane: plan = mgc::hal::tower_crane_bus_plan(); break;
-    case MachineKind::Excavator: plan = mgc::hal::excavator_bus_plan(); break;
-    default: throw std::invalid_argument(scenario.file + ": no bus plan for this machine kind");
-  }
-  for (std::size_t j = 0; j < plan.num_joints; ++j) {
-    if (j >= scenario.machine.joints.size() || scenario.machine.joints[j].name != plan.encoders[j].joint) {
-      throw std::invalid_argument(scenario.file + ": joint " + std::to_string(j) + " is not \"" + plan.encoders[j].joint +
-                                  "\" as the bus plan expects");
-    }
-  }
-  return plan;
-}
-
 const char* state_name(std::int8_t code) {
   return mgc::guidance::to_string(static_cast<mgc::guidance::SupervisorState>(code - 1));
 }
@@ -152,7 +133,9 @@ int main(int argc, char** argv) {
     firmware::Controller controller(scenario, config);
     std::vector<double> vmax;
     for (const auto& j : scenario.machine.joints) vmax.push_back(j.max_velocity);
-    hal::Hal hal(*opened.bus, bus_plan(scenario), vmax);
+    std::vector<std::string> joint_names;
+    for (const auto& j : scenario.machine.joints) joint_names.push_back(j.name);
+    hal::Hal hal(*opened.bus, hal::bus_plan_for(planning::to_string(scenario.machine.kind), joint_names), vmax);
 
     firmware::SnapshotQueue snapshots;
     firmware::CommandQueue commands;

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -163,6 +164,8 @@ int main(int argc, char** argv) {
   lcm.subscribe(mgc::firmware::channel::kCommandStatus, &Watcher::on_status, &watcher);
 
   try {
+    std::optional<mgc::firmware::CommandKey> key;
+    if (!key_file.empty()) key.emplace(mgc::firmware::load_command_key(key_file));
     const auto send = [&](std::int8_t kind, const mgc::planning::Scenario* s) {
       mgc::operator_command_t cmd{};
       cmd.utime = watcher.now();
@@ -174,7 +177,7 @@ int main(int argc, char** argv) {
         cmd.num_joints = static_cast<std::int8_t>(s->goal.size());
         for (int j = 0; j < s->goal.size(); ++j) cmd.goal_position[j] = s->goal[j];
       }
-      if (!key_file.empty()) mgc::firmware::sign_command(cmd, mgc::firmware::load_command_key(key_file));
+      if (key) mgc::firmware::sign_command(cmd, *key);
       lcm.publish(mgc::firmware::channel::kCommand, &cmd);
     };
     if (stop) send(mgc::operator_command_t::KIND_STOP, nullptr);

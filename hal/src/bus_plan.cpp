@@ -3,6 +3,8 @@
 
 #include "mgc/hal/canopen.hpp"
 
+#include <stdexcept>
+
 namespace mgc::hal {
 
 namespace {
@@ -108,6 +110,30 @@ void CodecCounters::record(Status status) noexcept {
     case Status::ReservedBits: ++reserved_bits; break;
     default: ++other; break;
   }
+}
+
+BusPlan bus_plan_for(std::string_view machine_kind, std::span<const std::string> joint_names) {
+  BusPlan plan;
+  if (machine_kind == "mobile_crane") {
+    plan = mobile_crane_bus_plan();
+  } else if (machine_kind == "tower_crane") {
+    plan = tower_crane_bus_plan();
+  } else if (machine_kind == "excavator") {
+    plan = excavator_bus_plan();
+  } else {
+    throw std::invalid_argument("no bus plan for the machine kind \"" + std::string(machine_kind) + "\"");
+  }
+  if (plan.num_joints != joint_names.size()) {
+    throw std::invalid_argument("the machine has " + std::to_string(joint_names.size()) + " joints, its bus plan " +
+                                std::to_string(plan.num_joints));
+  }
+  for (std::size_t j = 0; j < plan.num_joints; ++j) {
+    if (joint_names[j] != plan.encoders[j].joint) {
+      throw std::invalid_argument("joint " + std::to_string(j) + " is \"" + joint_names[j] + "\", the bus plan expects \"" +
+                                  plan.encoders[j].joint + "\"");
+    }
+  }
+  return plan;
 }
 
 }  // namespace mgc::hal

@@ -45,24 +45,9 @@ std::vector<SimTag> scenario_tags(const planning::Scenario& scenario) {
 }
 
 hal::BusPlan bus_plan_for(const planning::Scenario& scenario) {
-  hal::BusPlan plan;
-  switch (scenario.machine.kind) {
-    case planning::MachineKind::MobileCrane: plan = hal::mobile_crane_bus_plan(); break;
-    case planning::MachineKind::TowerCrane: plan = hal::tower_crane_bus_plan(); break;
-    case planning::MachineKind::Excavator: plan = hal::excavator_bus_plan(); break;
-    default: throw std::invalid_argument("no bus plan for this machine kind");
-  }
-  if (plan.num_joints != scenario.machine.joints.size()) {
-    throw std::invalid_argument("the machine has " + std::to_string(scenario.machine.joints.size()) +
-                                " joints, its bus plan " + std::to_string(plan.num_joints));
-  }
-  for (std::size_t j = 0; j < plan.num_joints; ++j) {
-    if (scenario.machine.joints[j].name != plan.encoders[j].joint) {
-      throw std::invalid_argument("joint " + std::to_string(j) + " is \"" + scenario.machine.joints[j].name +
-                                  "\", the bus plan expects \"" + plan.encoders[j].joint + "\"");
-    }
-  }
-  return plan;
+  std::vector<std::string> names;
+  for (const auto& j : scenario.machine.joints) names.push_back(j.name);
+  return hal::bus_plan_for(planning::to_string(scenario.machine.kind), names);
 }
 
 Simulator::Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimConfig config)

@@ -174,7 +174,6 @@ class Controller {
   double obstacle_speed_m_s_ = 0.0;     //!< what the stop check assumes this cycle
   guidance::StopCheck stop_check_;
   guidance::StopCheckResult check_{};
-  const planning::MobileCrane* crane_ = nullptr;
   std::unique_ptr<guidance::RatedCapacityLimiter> rcl_;
   guidance::RatedCapacityResult rcl_result_{};
   guidance::Supervisor supervisor_;
@@ -218,7 +217,6 @@ class Controller {
 
   planning::Kinematics kinematics_{};
   std::int64_t now_us_ = 0;
-  guidance::SupervisorState previous_state_ = guidance::SupervisorState::Init;
   GuidanceSnapshot snap_{};
   ControllerStats stats_{};
 };

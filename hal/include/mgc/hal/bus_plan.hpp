@@ -4,6 +4,9 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
 
 #include "mgc/hal/can_frame.hpp"
 #include "mgc/hal/device_pdos.hpp"
@@ -57,6 +60,11 @@ struct BusPlan {
 [[nodiscard]] BusPlan tower_crane_bus_plan() noexcept;
 //! Excavator: swing, boom, arm, bucket.
 [[nodiscard]] BusPlan excavator_bus_plan() noexcept;
+
+//! The plan of a machine kind as the scenario files name it ("mobile_crane", "tower_crane",
+//! "excavator"), checked against the machine's joint names in order. Start-up only: throws
+//! std::invalid_argument saying which kind or joint does not fit.
+[[nodiscard]] BusPlan bus_plan_for(std::string_view machine_kind, std::span<const std::string> joint_names);
 
 //! What a frame is, by its id alone.
 enum class MessageKind : std::uint8_t {
