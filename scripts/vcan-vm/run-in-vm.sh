@@ -10,7 +10,8 @@
 # from a writable folder and prints "MGC-VM-RESULT <name> <exit status>" for each. Exits 0 only
 # when every binary reported 0. The kernel and its modules are cached in $MGC_BUILD_DIR/vcan-vm/.
 #
-# Environment: MGC_BUILD_DIR (default <repo>/build), MGC_VM_TIMEOUT_S (whole VM, default 300).
+# Environment: MGC_BUILD_DIR (default <repo>/build), MGC_VM_TIMEOUT_S (whole VM, default 300),
+# MGC_VM_ACCEL=tcg (emulate even where KVM is present).
 set -euo pipefail
 # shellcheck source=scripts/lib/common.sh
 source "$(dirname "${BASH_SOURCE[0]}")/../lib/common.sh"
@@ -161,20 +162,63 @@ chmod +x "$root/init"
 (cd "$root" && find . | cpio -o -H newc --quiet | gzip -1) >"$run_dir/initrd.gz"
 
 # --- boot --------------------------------------------------------------------------------------
-accel=(-machine accel=tcg)
-[ -r /dev/kvm ] && [ -w /dev/kvm ] && accel=(-machine accel=kvm -cpu host)
+console_raw="$run_dir/console.raw"
 console="$run_dir/console.log"
+# Boots the VM with the accelerator options given after the deadline, its serial console into
+# $console_raw, and returns qemu's exit status (124: the VM timed out). With a boot deadline > 0
+# it gives up (status 200) when init has not started the first test by then: a KVM that accepts
+# the VM and then never runs it must not cost the whole timeout.
+boot_vm() {
+  local deadline_s=$1
+  shift
+  : >"$console_raw"
+  # No network card: the tests need none, and its boot ROM only costs time.
+  timeout "$VM_TIMEOUT_S" qemu-system-x86_64 "$@" -m 256 -display none -monitor none -serial "file:$console_raw" \
+    -no-reboot -nic none -kernel "$kernel_dir/vmlinuz" -initrd "$run_dir/initrd.gz" \
+    -append "console=ttyS0 quiet panic=-1" </dev/null >"$run_dir/qemu.log" 2>&1 &
+  local pid=$! waited_s=0
+  while kill -0 "$pid" 2>/dev/null; do
+    if [ "$deadline_s" -gt 0 ] && [ "$waited_s" -ge "$deadline_s" ] && ! grep -q 'MGC-VM-START' "$console_raw"; then
+      kill "$pid" 2>/dev/null
+      wait "$pid" 2>/dev/null
+      return 200
+    fi
+    sleep 1
+    waited_s=$((waited_s + 1))
+  done
+  wait "$pid"
+}
+
+# KVM when it works, else emulation (MGC_VM_ACCEL=tcg forces it). Some hosts' KVM refuses a CPU
+# model that passes the host's IA32_ARCH_CAPABILITIES MSR through ("failed to set MSR 0x10a", qemu
+# aborts at once), and some accept a VM they then never run; each KVM candidate gets a boot
+# deadline, and emulation is the last resort.
+candidates=()
+if [ "${MGC_VM_ACCEL:-}" != tcg ] && [ -r /dev/kvm ] && [ -w /dev/kvm ]; then
+  candidates+=("-machine accel=kvm -cpu host" "-machine accel=kvm -cpu host,-arch-capabilities")
+fi
+candidates+=("-machine accel=tcg")
 echo "run-in-vm: booting $kernel_pkg with ${names[*]} (timeout ${VM_TIMEOUT_S} s)"
 start_s=$SECONDS
-set +e
-# No network card: the tests need none, and its boot ROM only costs time. The firmware's terminal
-# control sequences are stripped so that the log reads as plain text.
-timeout "$VM_TIMEOUT_S" qemu-system-x86_64 "${accel[@]}" -m 256 -nographic -no-reboot -nic none \
-  -kernel "$kernel_dir/vmlinuz" -initrd "$run_dir/initrd.gz" \
-  -append "console=ttyS0 quiet panic=-1" </dev/null 2>&1 |
-  tr -d '\r' | sed -u 's/\x1b\[[0-9;?]*[a-zA-Z]//g; s/\x1bc//g' | tee "$console"
-qemu_status=${PIPESTATUS[0]}
-set -e
+qemu_status=0
+for i in "${!candidates[@]}"; do
+  read -r -a accel <<<"${candidates[$i]}"
+  deadline_s=0
+  [ "$i" -lt $((${#candidates[@]} - 1)) ] && deadline_s=30
+  set +e
+  boot_vm "$deadline_s" "${accel[@]}"
+  qemu_status=$?
+  set -e
+  if [ "$qemu_status" -eq 200 ] || { [ "$qemu_status" -ne 0 ] && ! grep -q 'MGC-VM-START' "$console_raw"; }; then
+    echo "run-in-vm: qemu ${accel[*]} did not boot (status $qemu_status): $(tail -n 1 "$run_dir/qemu.log")"
+    continue
+  fi
+  echo "run-in-vm: qemu ${accel[*]}"
+  break
+done
+# The firmware's terminal control sequences are stripped so that the log reads as plain text.
+tr -d '\r' <"$console_raw" | sed 's/\x1b\[[0-9;?]*[a-zA-Z]//g; s/\x1bc//g' >"$console"
+cat "$console"
 echo "run-in-vm: VM ran $((SECONDS - start_s)) s, qemu exit status $qemu_status"
 
 failed=0
