@@ -684,6 +684,10 @@ Validity CollisionWorld::validate(const JointVector& q) noexcept {
     v.status = Validity::Status::Constraint;
     return v;
   }
+  if (rule_ != nullptr && !rule_->allows(q, &v.rule_limit)) {
+    v.status = Validity::Status::Rule;
+    return v;
+  }
   if (!is_free(q, &v.contact)) v.status = Validity::Status::Collision;
   return v;
 }
@@ -864,6 +868,7 @@ std::string CollisionWorld::describe(const Validity& validity) const {
     }
     case Validity::Status::Constraint: return std::string("engineering constraint: ") + to_string(validity.constraint.status);
     case Validity::Status::Collision: return "collision: " + describe(validity.contact);
+    case Validity::Status::Rule: return rule_ != nullptr ? rule_->describe(validity.rule_limit) : "refused by a configuration rule";
   }
   return "unknown";
 }

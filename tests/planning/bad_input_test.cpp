@@ -236,3 +236,34 @@ TEST_CASE("bad input: the simulation section is checked field by field", "[unit]
   CHECK(s.simulation.faults[0].first == "bus-off@2+1");
   CHECK(s.simulation.faults[0].second.line == 32);
 }
+
+TEST_CASE("bad input: working envelope", "[unit]") {
+  const auto with = [](const std::string& envelope) { return scenario_text() + "envelope:\n" + envelope; };
+  {
+    TempFile file("scenario.yaml", with("  points: [boom_tip, hook]\n  height_ceiling_m: 40\n  slew_left_deg: 120\n"
+                                        "  slew_right_deg: -120\n  walls:\n    - {normal: [2, 0, 0], offset_m: -8}\n"));
+    const Scenario s = io::load_scenario(file.path());
+    REQUIRE(s.envelope.has_value());
+    CHECK(s.envelope->points == std::vector<std::string>{"boom_tip", "hook"});
+    CHECK(s.envelope->points_ref.line == 31);
+    CHECK(*s.envelope->height_ceiling_m == 40.0);
+    CHECK(*s.envelope->slew_left_rad == Approx(120.0 * M_PI / 180.0));
+    CHECK(*s.envelope->slew_right_rad == Approx(-120.0 * M_PI / 180.0));
+    REQUIRE(s.envelope->walls.size() == 1);
+    CHECK(s.envelope->walls[0].normal.isApprox(Eigen::Vector3d::UnitX()));  // normalised
+    CHECK(!s.envelope->radius_min_m.has_value());
+    CHECK(!s.envelope->slowdown_band_m.has_value());
+  }
+  expect_error(with("  points: [hook]\n"), {30, "envelope", "an envelope needs at least one limit"});
+  expect_error(with("  points: [hook]\n  slew_left_deg: 90\n"), {32, "envelope.slew_left_deg", "slew limits come in pairs"});
+  expect_error(with("  points: [hook, hook]\n  height_ceiling_m: 30\n"), {31, "envelope.points[1]", "a key point not already listed"});
+  expect_error(with("  points: []\n  height_ceiling_m: 30\n"), {31, "envelope.points", "expected a non-empty list"});
+  expect_error(with("  points: [hook]\n  height_ceiling_m: 10\n  depth_floor_m: 12\n"),
+               {33, "envelope.depth_floor_m", "a floor below height_ceiling_m"});
+  expect_error(with("  points: [hook]\n  walls:\n    - {normal: [0, 0, 0], offset_m: 1}\n"),
+               {33, "envelope.walls[0].normal", "a non-zero normal"});
+  expect_error(with("  points: [hook]\n  radius_min_m: 10\n  radius_max_m: 5\n"), {33, "envelope.radius_max_m", "a radius above radius_min_m"});
+  expect_error(with("  points: [hook]\n  slew_left_deg: 30\n  slew_right_deg: 30\n"), {32, "envelope.slew_left_deg", "an angle other than"});
+  expect_error(with("  points: [hook]\n  ceiling_m: 30\n"), {32, "envelope.ceiling_m", "unknown field"});
+  expect_error(with("  points: [hook]\n  height_ceiling_m: 30\n  slowdown_band_m: 0\n"), {33, "envelope.slowdown_band_m", "positive"});
+}

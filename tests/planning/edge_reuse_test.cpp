@@ -160,6 +160,7 @@ TEST_CASE("edge checks that reuse unmoved bodies give the brute-force verdict wi
         case Validity::Status::Valid: ++tally.valid; break;
         case Validity::Status::JointOutOfRange: ++tally.out_of_range; break;
         case Validity::Status::Constraint: ++tally.constraint; break;
+        case Validity::Status::Rule: FAIL("these worlds have no configuration rule"); break;
         case Validity::Status::Collision:
           if (r.contact.with == Contact::With::Dynamic) {
             ++tally.dynamic;

@@ -363,6 +363,65 @@ SimulationSpec read_simulation(const Value& value) {
   return sim;
 }
 
+// envelope: working-envelope limits on named key points (docs/scenarios.md). The names are
+// resolved against the machine model by its user (guidance::envelope_config), which names this
+// section's line when one is unknown.
+EnvelopeSpec read_envelope(const Value& value) {
+  constexpr std::size_t kMaxWalls = 8;  // guidance::EnvelopeConfig::kMaxWalls
+  Fields f = value.fields();
+  EnvelopeSpec e;
+  const Value points = f.required("points");
+  std::set<std::string> seen;
+  for (const Value& p : points.non_empty_list()) {
+    std::string name = p.text();
+    if (!seen.insert(name).second) p.fail("a key point not already listed");
+    e.points.push_back(std::move(name));
+  }
+  e.points_ref = {value.file(), points.line(), points.path()};
+  if (auto v = f.optional("height_ceiling_m")) e.height_ceiling_m = v->number();
+  if (auto v = f.optional("depth_floor_m")) {
+    e.depth_floor_m = v->number();
+    if (e.height_ceiling_m && !(*e.depth_floor_m < *e.height_ceiling_m)) v->fail("a floor below height_ceiling_m");
+  }
+  auto left = f.optional("slew_left_deg");
+  auto right = f.optional("slew_right_deg");
+  if (left.has_value() != right.has_value()) {
+    (left ? *left : *right).fail_plain("slew limits come in pairs: give slew_left_deg and slew_right_deg");
+  }
+  if (left) {
+    e.slew_left_rad = left->number_in(-180.0, 180.0) * kDegToRad;
+    e.slew_right_rad = right->number_in(-180.0, 180.0) * kDegToRad;
+    if (*e.slew_left_rad == *e.slew_right_rad) left->fail("an angle other than slew_right_deg (the allowed sector runs counter-clockwise from right to left)");
+  }
+  if (auto v = f.optional("radius_min_m")) e.radius_min_m = v->non_negative();
+  if (auto v = f.optional("radius_max_m")) {
+    e.radius_max_m = v->positive();
+    if (e.radius_min_m && !(*e.radius_max_m > *e.radius_min_m)) v->fail("a radius above radius_min_m");
+  }
+  if (auto walls = f.optional("walls")) {
+    const std::vector<Value> list = walls->non_empty_list();
+    if (list.size() > kMaxWalls) walls->fail("at most " + std::to_string(kMaxWalls) + " walls");
+    for (const Value& w : list) {
+      Fields wf = w.fields();
+      const Value normal = wf.required("normal");
+      EnvelopeWallSpec wall;
+      wall.normal = normal.vec3();
+      if (!(wall.normal.norm() > 1e-9)) normal.fail("a non-zero normal pointing into the allowed side");
+      wall.normal.normalize();
+      wall.offset_m = wf.required("offset_m").number();
+      wf.finish();
+      e.walls.push_back(wall);
+    }
+  }
+  if (auto v = f.optional("slowdown_band_m")) e.slowdown_band_m = v->positive();
+  f.finish();
+  if (!e.height_ceiling_m && !e.depth_floor_m && !e.slew_left_rad && !e.radius_min_m && !e.radius_max_m && e.walls.empty()) {
+    value.fail_plain("an envelope needs at least one limit (height_ceiling_m, depth_floor_m, slew_left_deg/slew_right_deg, "
+                     "radius_min_m, radius_max_m or walls)");
+  }
+  return e;
+}
+
 // start/goal: one field per joint, named after the joint with its unit: swing_deg, boom_length_m.
 JointVector read_configuration(const Value& value, const MachineDefinition& machine) {
   Fields f = value.fields();
@@ -502,6 +561,7 @@ Scenario load_scenario(const std::filesystem::path& path) {
     s.work_cycle = read_work_cycle(*cycle, s, goal, [&](const Value& v) { return read_configuration(v, s.machine); });
   }
   s.planner = read_planner(f.required("planner"));
+  if (auto envelope = f.optional("envelope")) s.envelope = read_envelope(*envelope);
   if (auto sim = f.optional("simulation")) s.simulation = read_simulation(*sim);
   f.finish();
   return s;

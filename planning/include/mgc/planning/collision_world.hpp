@@ -23,13 +23,14 @@ struct Contact {
 };
 
 //! Why a configuration is not valid, checked cheapest first: joint ranges, the machine's
-//! engineering constraints, then collision.
+//! engineering constraints, the world's configuration rule (the working envelope), then collision.
 struct Validity {
-  enum class Status : std::int16_t { Valid = 0, JointOutOfRange = -310, Constraint = -311, Collision = -312 };
+  enum class Status : std::int16_t { Valid = 0, JointOutOfRange = -310, Constraint = -311, Collision = -312, Rule = -313 };
   Status status = Status::Valid;
   int joint = -1;                 //!< JointOutOfRange: the joint
   ConstraintVerdict constraint;   //!< Constraint: the rule that failed
   Contact contact;                //!< Collision: what hit what
+  int rule_limit = -1;            //!< Rule: which of the rule's limits refused (ConfigurationRule::describe)
 
   [[nodiscard]] bool valid() const noexcept { return status == Status::Valid; }
 };
@@ -40,6 +41,19 @@ struct Clearance {
   int body = -1;            //!< machine body nearest to an obstacle
   Contact::With with = Contact::With::Nothing;
   int other = -1;           //!< static or dynamic obstacle index
+};
+
+//! A rule on configurations beyond the joint ranges and the machine's own constraints: the site's
+//! working envelope (guidance::EnvelopeRule), which a plan must keep as the limiter will. A world
+//! consults it in validate(), so every planner and every edge check keeps it.
+class ConfigurationRule {
+ public:
+  virtual ~ConfigurationRule() = default;
+  //! Whether q is allowed; when not, `limit` receives which of the rule's limits refuses it.
+  //! RT-safe: no allocation, no throw.
+  [[nodiscard]] virtual bool allows(const JointVector& q, int* limit) noexcept = 0;
+  //! The refusing limit in words, e.g. "hook within 1.25 m of the height ceiling". Not RT.
+  [[nodiscard]] virtual std::string describe(int limit) const = 0;
 };
 
 //! The site as FCL sees it: static obstacles in a dynamic-AABB-tree broad phase, dynamic
@@ -75,8 +89,12 @@ class CollisionWorld {
   //! Collision with the dynamic obstacles only, at their current poses: what a move of those
   //! can newly break in a configuration that was valid. RT-safe after finalize().
   [[nodiscard]] bool hits_dynamic(const JointVector& q, Contact* contact = nullptr) noexcept;
-  //! Joint ranges, constraints, then collision.
+  //! Joint ranges, constraints, the configuration rule (if set), then collision.
   [[nodiscard]] Validity validate(const JointVector& q) noexcept;
+  //! The rule validate() consults after the constraints; null (the default) for none. The rule
+  //! must outlive the world or be replaced first.
+  void set_rule(ConfigurationRule* rule) noexcept { rule_ = rule; }
+  [[nodiscard]] ConfigurationRule* rule() const noexcept { return rule_; }
   //! Validates the straight joint-space edge from -> to at n evenly spaced configurations after
   //! `from` (continuous joints the short way round). n is the larger of max_i ceil(|d_i| /
   //! max_step_i) and the number of samples that keeps every body point from moving more than the
@@ -161,6 +179,7 @@ class CollisionWorld {
   std::vector<std::string> static_names_;
   std::unique_ptr<Impl> impl_;
   std::uint64_t collision_checks_ = 0;
+  ConfigurationRule* rule_ = nullptr;
 };
 
 }  // namespace mgc::planning

@@ -116,6 +116,28 @@ struct WorkCycleSpec {
   SourceRef next_dig_ref;  //!< field empty when the file gives no next_dig
 };
 
+//! A virtual wall of the working envelope: allowed where normal . p - offset_m >= 0 (world frame).
+struct EnvelopeWallSpec {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitX();  //!< unit, into the allowed side
+  double offset_m = 0.0;                              //!< [m]
+};
+
+//! The `envelope` section: working-envelope limits as the commercial limiters have them
+//! (docs/safety.md), on named key points of the machine. Every limit is optional; slew limits come
+//! in pairs. The controller plans inside them and its limiter and stop check enforce them.
+struct EnvelopeSpec {
+  std::vector<std::string> points;  //!< MachineModel::key_point_names() entries, resolved by the user
+  SourceRef points_ref;
+  std::optional<double> height_ceiling_m;  //!< world z [m]
+  std::optional<double> depth_floor_m;     //!< world z [m]
+  std::optional<double> slew_left_rad;     //!< most counter-clockwise azimuth, base frame [rad]
+  std::optional<double> slew_right_rad;    //!< most clockwise azimuth, base frame [rad]
+  std::optional<double> radius_min_m;      //!< from the base z axis [m]
+  std::optional<double> radius_max_m;      //!< [m]
+  std::vector<EnvelopeWallSpec> walls;
+  std::optional<double> slowdown_band_m;   //!< [m]; absent: the limiter's default
+};
+
 struct Scenario {
   std::string file;
   std::string name;
@@ -132,6 +154,7 @@ struct Scenario {
   PlannerParams planner;
   SimulationSpec simulation;
   std::optional<WorkCycleSpec> work_cycle;  //!< excavators only
+  std::optional<EnvelopeSpec> envelope;
   //! Two cranes of the machine file's type on one girder (seed 004); then `machine.joints` are
   //! dual_crane_joints(), and there is no base or task.
   std::optional<DualCraneSpec> dual_crane;
