@@ -3,7 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
+#include <stdexcept>
+#include <string>
 
 namespace mgc::guidance {
 namespace {
@@ -188,6 +191,88 @@ EnvelopeResult Envelope::limit_velocity(const planning::JointVector& q,
   }
   for (int j = 0; j < n; ++j) result.allowed_velocity[j] = commanded_velocity[j] * result.joint_scale[static_cast<std::size_t>(j)];
   return result;
+}
+
+EnvelopeConfig envelope_config(const planning::EnvelopeSpec& spec, const planning::MachineModel& model) {
+  const std::string where = spec.points_ref.file + ":" + std::to_string(spec.points_ref.line) + ": " + spec.points_ref.field + ": ";
+  EnvelopeConfig c;
+  if (spec.points.size() > static_cast<std::size_t>(EnvelopeConfig::kMaxPoints)) {
+    throw std::invalid_argument(where + "at most " + std::to_string(EnvelopeConfig::kMaxPoints) + " key points");
+  }
+  const auto names = model.key_point_names();
+  for (const std::string& name : spec.points) {
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) {
+      std::string known;
+      for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+      throw std::invalid_argument(where + "expected a key point of the " + std::string(planning::to_string(model.kind())) + " machine (" + known +
+                                  "), got '" + name + "'");
+    }
+    c.points[static_cast<std::size_t>(c.point_count++)] = static_cast<int>(it - names.begin());
+  }
+  if (spec.height_ceiling_m) {
+    c.height_ceiling_enabled = true;
+    c.height_ceiling_m = *spec.height_ceiling_m;
+  }
+  if (spec.depth_floor_m) {
+    c.depth_floor_enabled = true;
+    c.depth_floor_m = *spec.depth_floor_m;
+  }
+  if (spec.slew_left_rad && spec.slew_right_rad) {
+    c.slew_enabled = true;
+    c.slew_left_rad = *spec.slew_left_rad;
+    c.slew_right_rad = *spec.slew_right_rad;
+  }
+  if (spec.radius_min_m) {
+    c.radius_min_enabled = true;
+    c.radius_min_m = *spec.radius_min_m;
+  }
+  if (spec.radius_max_m) {
+    c.radius_max_enabled = true;
+    c.radius_max_m = *spec.radius_max_m;
+  }
+  if (spec.walls.size() > static_cast<std::size_t>(EnvelopeConfig::kMaxWalls)) {
+    throw std::invalid_argument(where + "at most " + std::to_string(EnvelopeConfig::kMaxWalls) + " walls");
+  }
+  for (const planning::EnvelopeWallSpec& w : spec.walls) c.walls[static_cast<std::size_t>(c.wall_count++)] = {w.normal, w.offset_m};
+  if (spec.slowdown_band_m) c.slowdown_band_m = *spec.slowdown_band_m;
+  return c;
+}
+
+namespace {
+
+// A refusing limit packed into one int for Validity::rule_limit: key point, limit kind, wall.
+constexpr int kLimitKinds = 8;
+constexpr int kWallSlots = EnvelopeConfig::kMaxWalls;
+
+int pack_limit(const EnvelopeDistance& d) noexcept {
+  return (d.point * kLimitKinds + static_cast<int>(d.limit)) * kWallSlots + std::max(d.wall, 0);
+}
+
+}  // namespace
+
+EnvelopeRule::EnvelopeRule(const planning::MachineModel& model, const EnvelopeConfig& config, double margin_m) noexcept
+    : model_(model), envelope_(model, config), margin_m_(margin_m) {}
+
+bool EnvelopeRule::allows(const planning::JointVector& q, int* limit) noexcept {
+  const EnvelopeDistance d = envelope_.nearest(q);
+  if (d.limit == EnvelopeLimit::None || d.distance_m >= margin_m_) return true;
+  if (limit != nullptr) *limit = pack_limit(d);
+  return false;
+}
+
+std::string EnvelopeRule::describe(int limit) const {
+  if (limit < 0) return "outside the working envelope";
+  const int wall = limit % kWallSlots;
+  const auto kind = static_cast<EnvelopeLimit>((limit / kWallSlots) % kLimitKinds);
+  const auto point = static_cast<std::size_t>(limit / (kWallSlots * kLimitKinds));
+  const auto names = model_.key_point_names();
+  const std::string name = point < names.size() ? names[point] : "key point " + std::to_string(point);
+  char margin[32];
+  std::snprintf(margin, sizeof margin, "%.2f", margin_m_);
+  std::string text = "working envelope: " + name + " within " + margin + " m of the " + to_string(kind);
+  if (kind == EnvelopeLimit::Wall) text += " " + std::to_string(wall);
+  return text;
 }
 
 }  // namespace mgc::guidance

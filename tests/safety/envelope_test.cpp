@@ -165,3 +165,50 @@ TEST_CASE("a virtual wall cuts the motions that carry a point toward it", "[unit
   CHECK(away.allowed_velocity == ThesisCrane::v(-0.01, 0.01, -0.05, 0.3));
   CHECK(envelope.nearest(kQ).distance_m == Approx(0.8).margin(1e-3));
 }
+
+TEST_CASE("a scenario's envelope section becomes the limiter's configuration, unknown key points are refused", "[unit]") {
+  ThesisCrane t;
+  planning::EnvelopeSpec spec;
+  spec.points = {"hook", "boom_tip"};
+  spec.points_ref = {"site.yaml", 31, "envelope.points"};
+  spec.height_ceiling_m = 40.0;
+  spec.slew_left_rad = 2.0;
+  spec.slew_right_rad = -2.0;
+  spec.walls.push_back({Eigen::Vector3d::UnitX(), -8.0});
+  spec.slowdown_band_m = 3.0;
+  const EnvelopeConfig c = envelope_config(spec, t.crane);
+  REQUIRE(c.point_count == 2);
+  CHECK(c.points[0] == MobileCrane::kPointHook);
+  CHECK(c.points[1] == MobileCrane::kPointBoomTip);
+  CHECK(c.height_ceiling_enabled);
+  CHECK(c.height_ceiling_m == 40.0);
+  CHECK_FALSE(c.depth_floor_enabled);
+  CHECK(c.slew_enabled);
+  CHECK(c.slew_left_rad == 2.0);
+  CHECK(c.slew_right_rad == -2.0);
+  CHECK_FALSE(c.radius_min_enabled);
+  CHECK_FALSE(c.radius_max_enabled);
+  REQUIRE(c.wall_count == 1);
+  CHECK(c.walls[0].offset_m == -8.0);
+  CHECK(c.slowdown_band_m == 3.0);
+
+  spec.points = {"hook", "hock"};
+  CHECK_THROWS_WITH(envelope_config(spec, t.crane),
+                    "site.yaml:31: envelope.points: expected a key point of the mobile_crane machine (boom_foot, boom_tip, hook, "
+                    "load_bottom), got 'hock'");
+}
+
+TEST_CASE("the envelope as a planning rule refuses configurations within its margin and names the limit", "[unit]") {
+  ThesisCrane t;
+  EnvelopeConfig c = points_config();
+  c.height_ceiling_enabled = true;
+  c.height_ceiling_m = kTipHeightM + 1.0;
+  EnvelopeRule rule(t.crane, c, 1.25);
+  int limit = -1;
+  CHECK_FALSE(rule.allows(kQ, &limit));  // 1 m below the ceiling: inside the 1.25 m margin
+  CHECK(rule.describe(limit) == "working envelope: boom_tip within 1.25 m of the height ceiling");
+  const planning::JointVector lower = ThesisCrane::q(80, 45, 20, 14.82);  // tip 1.9 m lower
+  CHECK(rule.allows(lower, &limit));
+  EnvelopeRule exact(t.crane, c, 0.0);
+  CHECK(exact.allows(kQ, &limit));
+}

@@ -3,8 +3,11 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 
+#include "mgc/planning/collision_world.hpp"
 #include "mgc/planning/machine_model.hpp"
+#include "mgc/planning/scenario.hpp"
 
 namespace mgc::guidance {
 
@@ -110,6 +113,30 @@ class Envelope {
   EnvelopeConfig config_;
   planning::Kinematics kinematics_{};
   planning::Kinematics kinematics_step_{};
+};
+
+//! The limiter's configuration for a scenario's `envelope` section on its model: key points by name,
+//! angles and lengths as given, the band if given. Throws std::invalid_argument naming the file,
+//! line and field for a key point the model does not have or more points than kMaxPoints.
+[[nodiscard]] EnvelopeConfig envelope_config(const planning::EnvelopeSpec& spec, const planning::MachineModel& model);
+
+//! The envelope as a planning rule (planning::CollisionWorld::set_rule): a configuration is allowed
+//! when every monitored point keeps margin_m inside every limit, so that a planned path stays clear
+//! of the limiter's cut and the stop check's envelope stop. Owns its Envelope (and so its
+//! kinematics cache): one rule per world. RT-safe after construction.
+class EnvelopeRule final : public planning::ConfigurationRule {
+ public:
+  //! The model must outlive the rule.
+  EnvelopeRule(const planning::MachineModel& model, const EnvelopeConfig& config, double margin_m) noexcept;
+
+  [[nodiscard]] bool allows(const planning::JointVector& q, int* limit) noexcept override;
+  [[nodiscard]] std::string describe(int limit) const override;
+  [[nodiscard]] double margin_m() const noexcept { return margin_m_; }
+
+ private:
+  const planning::MachineModel& model_;
+  Envelope envelope_;
+  double margin_m_;
 };
 
 }  // namespace mgc::guidance
