@@ -4,6 +4,7 @@
 #include <mgc/alert_t.hpp>
 #include <mgc/machine_state_t.hpp>
 #include <mgc/operator_guidance_t.hpp>
+#include <mgc/operator_instruction_t.hpp>
 #include <mgc/plan_t.hpp>
 
 #include <algorithm>
@@ -89,7 +90,23 @@ enum AlertKind : std::size_t {
   kAlertPlanner,
   kAlertOperator,
   kAlertTracking,
+  kAlertEnvelope,
 };
+
+std::unique_ptr<guidance::Envelope> make_envelope(const planning::Scenario& scenario, const planning::MachineModel& model) {
+  if (!scenario.envelope) return nullptr;
+  return std::make_unique<guidance::Envelope>(model, guidance::envelope_config(*scenario.envelope, model));
+}
+
+// The feed's envelope codes are the limiter's limits in order.
+static_assert(static_cast<int>(guidance::EnvelopeLimit::HeightCeiling) == mgc::operator_instruction_t::ENVELOPE_HEIGHT_CEILING);
+static_assert(static_cast<int>(guidance::EnvelopeLimit::Wall) == mgc::operator_instruction_t::ENVELOPE_WALL);
+
+//! Alert index of an envelope limit (alert_t.index): its feed code, a wall's plus its index.
+std::int32_t envelope_alert_index(const guidance::EnvelopeDistance& d) noexcept {
+  if (d.limit == guidance::EnvelopeLimit::None) return -1;
+  return static_cast<std::int32_t>(d.limit) + (d.limit == guidance::EnvelopeLimit::Wall ? std::max(d.wall, 0) : 0);
+}
 
 std::int8_t fault_source(guidance::TransitionReason r) noexcept {
   return r == guidance::TransitionReason::WatchdogTripped ? mgc::alert_t::SOURCE_WATCHDOG : mgc::alert_t::SOURCE_SENSING;
@@ -109,7 +126,8 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       escape_world_(planning_world(scenario_, *model_, config.escape_margin_m, 0.0)),
       escape_problem_(planning::planning_problem(scenario_, *model_, *escape_world_)),
       escape_(planning::make_replanner(config.replanner)),
-      stop_check_(*safety_world_, nullptr, config.stop_check),
+      envelope_(make_envelope(scenario_, *model_)),
+      stop_check_(*safety_world_, envelope_.get(), config.stop_check),
       supervisor_(supervisor_config(config.supervisor, scenario_)),
       limiter_(make_limiter(*model_)),
       n_(model_->dof()) {
@@ -132,6 +150,15 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       for (const Eigen::Vector3d& v : part.vertices_m) h.radius_m = std::max(h.radius_m, (part.pose * v).norm());
     }
     histories_.push_back(h);
+  }
+  if (envelope_) {
+    if (!(config.envelope_planning_margin_m >= 0.0 && config.envelope_escape_margin_m >= 0.0)) {
+      throw std::invalid_argument("controller: envelope_planning_margin_m and envelope_escape_margin_m must be >= 0");
+    }
+    plan_rule_ = std::make_unique<guidance::EnvelopeRule>(*model_, envelope_->config(), config.envelope_planning_margin_m);
+    escape_rule_ = std::make_unique<guidance::EnvelopeRule>(*model_, envelope_->config(), config.envelope_escape_margin_m);
+    plan_world_->set_rule(plan_rule_.get());
+    escape_world_->set_rule(escape_rule_.get());
   }
   obstacle_speed_m_s_ = config.stop_check.dynamic_obstacle_speed_m_s;
   replan_settings_.max_iterations = scenario_.planner.replan_max_iterations;
@@ -158,6 +185,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   origin_ = q_raw_;
   target_unwrapped_ = q_raw_;
   v_command_ = q_raw_;
+  v_probe_ = q_raw_;
   snap_.machine_kind = model_->kind();
   snap_.num_joints = n_;
 }
@@ -281,6 +309,11 @@ void Controller::run_safety() noexcept {
   if (rcl_) {
     rcl_result_ = rcl_->limit_velocity(q_wrapped_, rcl_->task_load_lb(), v_command_);
   }
+  if (envelope_) {
+    // The motion now commanded: the command path below cuts the next one.
+    for (int j = 0; j < n_; ++j) v_probe_[j] = limiter_.velocity()[static_cast<std::size_t>(j)];
+    envelope_result_ = envelope_->limit_velocity(q_wrapped_, v_probe_);
+  }
 }
 
 void Controller::load_path() noexcept {
@@ -357,9 +390,18 @@ void Controller::follow(double dt_s, double speed_scale) noexcept {
     }
     if (moving < 0) moving = moving_joint_ >= 0 ? moving_joint_ : 0;
     moving_joint_ = moving;
+    double clock_scale = speed_scale;
+    if (envelope_) {
+      // Near a limit the envelope slows the moving joint; the setpoint slows with it, or the
+      // machine would fall behind and the next joint start before this one arrives.
+      const auto k = static_cast<std::size_t>(moving);
+      v_probe_.setZero();
+      v_probe_[moving] = std::copysign(follow_limits_[k].max_velocity, target_unwrapped_[moving] - setpoint_[k].position);
+      clock_scale *= envelope_->limit_velocity(q_wrapped_, v_probe_).joint_scale[k];
+    }
     const guidance::TrajectoryStatus st =
         generator_.update(setpoint_.data(), follow_limits_.data(), static_cast<std::size_t>(n_), static_cast<std::size_t>(moving),
-                          target_unwrapped_[moving], dt_s * speed_scale, next_.data());
+                          target_unwrapped_[moving], dt_s * clock_scale, next_.data());
     if (st == guidance::TrajectoryStatus::Working || st == guidance::TrajectoryStatus::Finished) {
       setpoint_ = next_;
       bool reached = st == guidance::TrajectoryStatus::Finished;
@@ -401,6 +443,7 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
     in.safety.stop_check = check_.status;
     in.safety.warning_speed_scale = check_.speed_scale;
     if (rcl_) in.safety.rcl_stage = rcl_result_.stage;
+    if (envelope_) in.safety.envelope_violated = envelope_result_.violated;
   }
   in.commands.stop = commands.stop;
   in.commands.goal_request = commands.goal_request;
@@ -443,12 +486,28 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
   if (out.motion_permitted && joints_valid_ && check_.min_clearance_m < stats_.min_clearance_m) {
     stats_.min_clearance_m = check_.min_clearance_m;
   }
+  if (envelope_ && out.motion_permitted && joints_valid_ && envelope_result_.nearest.limit != guidance::EnvelopeLimit::None) {
+    stats_.min_envelope_m = std::min(stats_.min_envelope_m, envelope_result_.nearest.distance_m);
+  }
 
   handle_plan_request(out);
 
+  envelope_slowing_ = false;
   if (out.motion_permitted && joints_valid_) {
     follow(dt_s, out.speed_scale);
     for (int j = 0; j < n_; ++j) v_command_[j] = v_target_[static_cast<std::size_t>(j)];
+    if (envelope_) {
+      // Only the components that approach a limit are slowed, to zero at it; the rest pass.
+      envelope_result_ = envelope_->limit_velocity(q_wrapped_, v_command_);
+      for (int j = 0; j < n_; ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        if (envelope_result_.joint_scale[k] >= 1.0) continue;
+        // A correction of the position feedback at rest is cut too, but is no motion to report.
+        envelope_slowing_ = envelope_slowing_ || std::abs(v_target_[k]) > config_.rest_speed;
+        v_target_[k] = envelope_result_.allowed_velocity[j];
+      }
+      if (envelope_slowing_) ++stats_.envelope_cut_cycles;
+    }
     if (rcl_) {
       const guidance::RatedCapacityResult cut = rcl_->limit_velocity(q_wrapped_, rcl_->task_load_lb(), v_command_);
       bool any_cut = false;
@@ -517,6 +576,7 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
     if (s.joints[k].health == hal::Health::Stale) flags |= mgc::machine_state_t::JOINT_ENCODER_STALE;
     if (!s.joints[k].valid) flags |= mgc::machine_state_t::JOINT_ENCODER_INVALID;
     if (rcl_ && rcl_result_.cut[k]) flags |= mgc::machine_state_t::JOINT_MOTION_CUT_OFF;
+    if (envelope_ && envelope_result_.joint_scale[k] == 0.0) flags |= mgc::machine_state_t::JOINT_MOTION_CUT_OFF;
     snap_.joint_fault_flags[k] = flags;
   }
   if (have_reading_) {
@@ -608,6 +668,11 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
   }
   snap_.limit_margin = limit_joint >= 0 ? margin : kNaN;
   snap_.limit_joint = static_cast<std::int8_t>(limit_joint);
+  const guidance::EnvelopeDistance& nearest_limit = envelope_result_.nearest;
+  const bool envelope_known = envelope_ && have_reading_ && nearest_limit.limit != guidance::EnvelopeLimit::None;
+  snap_.envelope_distance_m = envelope_known ? nearest_limit.distance_m : kNaN;
+  snap_.envelope_limit = static_cast<std::int8_t>(envelope_known ? nearest_limit.limit : guidance::EnvelopeLimit::None);
+  snap_.envelope_wall = static_cast<std::int8_t>(envelope_known ? nearest_limit.wall : -1);
 
   // Alerts.
   using A = mgc::alert_t;
@@ -624,6 +689,12 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
         rcl_result_.stage == guidance::RclStage::Warning ? 100.0 * config_.rated_capacity.warning_utilisation
                                                          : 100.0 * config_.rated_capacity.cutoff_utilisation,
         -1);
+  // The envelope: slowing or cutting a motion toward a limit, or a point already beyond one.
+  const bool envelope_acts = envelope_ && have_reading_ && moving_state && (envelope_result_.violated || envelope_slowing_);
+  const guidance::EnvelopeDistance& acting = envelope_result_.violated ? envelope_result_.nearest : envelope_result_.acting;
+  raise(kAlertEnvelope, envelope_acts, envelope_result_.violated ? A::SEVERITY_STOP : A::SEVERITY_SLOW_DOWN, A::SOURCE_ENVELOPE,
+        A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_METRE, acting.distance_m,
+        envelope_result_.violated || !envelope_ ? 0.0 : envelope_->config().slowdown_band_m, envelope_alert_index(acting));
   const bool fault = out.state == SupervisorState::Fault;
   raise(kAlertFault, fault, A::SEVERITY_FAULT, fault_source(supervisor_.reason()), A::CLEAR_ON_OPERATOR_ACK, A::UNIT_NONE,
         static_cast<double>(static_cast<int>(supervisor_.reason())), kNaN, -1);

@@ -185,6 +185,9 @@ void FeedPublisher::publish_snapshot(const GuidanceSnapshot& s) {
     words.obstacle_index = s.obstacle_index;
     words.limit_margin = s.limit_margin;
     words.limit_joint = s.limit_joint;
+    words.envelope_distance = s.envelope_distance_m;
+    words.envelope_limit = s.envelope_limit;
+    words.envelope_wall = s.envelope_wall;
     words.load_moment_pct = s.load_moment_pct;
     publish(channel::kOperatorInstruction, words);
   }

@@ -321,6 +321,11 @@ int main(int argc, char** argv) {
                 "%d commands refused\n",
                 guidance::to_string(controller.supervisor().state()), guidance::to_string(controller.supervisor().reason()),
                 st.replans, st.escapes, st.safety_stops, st.min_clearance_m, alerts_raised, st.commands_rejected);
+    if (controller.has_envelope()) {
+      std::printf("mgc: envelope: least distance of a monitored point to a limit while moving %.2f m, motions slowed toward a "
+                  "limit in %" PRIu64 " cycles\n",
+                  st.min_envelope_m, st.envelope_cut_cycles);
+    }
     std::printf("mgc: loop: %" PRIu64 " cycles at %" PRId64 " us, compute p99 %" PRId64 " us max %" PRId64
                 " us, wake-up lateness p99 %" PRId64 " us max %" PRId64 " us, %" PRIu64 " deadline misses, %" PRIu64
                 " watchdog trips, %" PRIu64 " snapshots dropped%s\n",

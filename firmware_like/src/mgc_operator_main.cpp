@@ -69,6 +69,7 @@ class Watcher {
       moves_ = moves;
       print_time();
       std::printf("guidance: %s (nearest obstacle %.1f m", i->text.c_str(), i->obstacle_clearance);
+      if (std::isfinite(i->envelope_distance)) std::printf(", envelope %.1f m", i->envelope_distance);
       if (std::isfinite(i->load_moment_pct)) std::printf(", load moment %.0f %%", i->load_moment_pct);
       std::printf(")\n");
     }

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The controller's cycle allocates nothing after construction: a whole lift through planning,
 // execution, a safety stop, waiting for the intruder, the re-plan and the goal, FCL queries and
-// the guidance snapshot included.
+// the guidance snapshot included; and the working envelope's limiter, stop-check sweep and planning
+// rule, under a ceiling close above the boom tip.
 #include <catch2/catch.hpp>
 
 #include "../sim/sim_rig.hpp"
@@ -15,7 +16,16 @@ TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re
   sim::SimConfig config = SimRig::quiet_config();
   config.scenario_time_offset_s = 40.0;  // crane 2 swings into the lift (controller_test.cpp)
   SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc");
-  firmware::Controller controller(rig.scenario, firmware::ControllerConfig{});
+  planning::Scenario scenario = rig.scenario;
+  const auto model = planning::build_model(scenario);
+  planning::Kinematics k;
+  model->forward_kinematics(scenario.start, k);
+  planning::EnvelopeSpec ceiling;
+  ceiling.points = {"boom_tip", "hook"};
+  ceiling.height_ceiling_m = k.points[1].z() + 1.5;  // key point 1: boom_tip
+  ceiling.walls.push_back({Eigen::Vector3d::UnitY(), -60.0});
+  scenario.envelope = ceiling;
+  firmware::Controller controller(scenario, firmware::ControllerConfig{});
   bool goal_sent = false;
   long cycles = 0;
   long allocations_in_steps = 0;
@@ -34,11 +44,12 @@ TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re
   };
   rig.run(SimRig::at_sim_s(360.0) - rig.t_us);
   const firmware::ControllerStats& st = controller.stats();
-  CAPTURE(cycles, st.plans, st.replans, st.safety_stops, st.goals_reached);
+  CAPTURE(cycles, st.plans, st.replans, st.safety_stops, st.goals_reached, st.envelope_cut_cycles);
   REQUIRE(st.plans == 1);
   REQUIRE(st.safety_stops >= 1);
   REQUIRE(st.replans >= 1);
   REQUIRE(st.goals_reached == 1);
+  REQUIRE(st.envelope_cut_cycles > 0);
   CHECK(cycles > 30'000);
   CHECK(allocations_in_steps == 0);
 }

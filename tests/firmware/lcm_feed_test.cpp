@@ -27,6 +27,7 @@ using namespace mgc::firmware;
 using mgc::alert_t;
 using mgc::command_status_t;
 using mgc::operator_command_t;
+using mgc::operator_instruction_t;
 
 namespace {
 
@@ -102,6 +103,8 @@ std::unique_ptr<GuidanceSnapshot> crane_snapshot(std::uint64_t cycle) {
   s->obstacle_index = 2;
   s->limit_margin = 0.3;
   s->limit_joint = 1;
+  s->envelope_distance_m = 6.5;
+  s->envelope_limit = operator_instruction_t::ENVELOPE_HEIGHT_CEILING;
   s->num_alerts = 1;
   s->alerts[0].alert_id = 5;
   s->alerts[0].severity = alert_t::SEVERITY_WARN;
@@ -182,6 +185,9 @@ TEST_CASE("snapshots come out on their channels over memq://", "[lcm]") {
   REQUIRE(rec.instructions[0].text == "swing left 32 deg, then boom up 4 deg");
   REQUIRE(rec.instructions[0].obstacle_clearance == 4.25);
   REQUIRE(rec.instructions[0].limit_joint == 1);
+  REQUIRE(rec.instructions[0].envelope_distance == 6.5);
+  REQUIRE(rec.instructions[0].envelope_limit == operator_instruction_t::ENVELOPE_HEIGHT_CEILING);
+  REQUIRE(rec.instructions[0].envelope_wall == -1);
   REQUIRE(rec.instructions[0].load_moment_pct == 63.5);
 
   // Alert raised once (unchanged in the second snapshot), then cleared with active = false.

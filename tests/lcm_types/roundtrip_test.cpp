@@ -492,6 +492,9 @@ TEST_CASE("operator_instruction_t round-trips every field", "[unit]") {
   sent.obstacle_index = 7;
   sent.limit_margin = 0.125;
   sent.limit_joint = 1;
+  sent.envelope_distance = 1.75;
+  sent.envelope_limit = mgc::operator_instruction_t::ENVELOPE_WALL;
+  sent.envelope_wall = 2;
   sent.load_moment_pct = 63.5;
   const Bytes buf = encode_checked(sent);
   const auto got = decode_checked<mgc::operator_instruction_t>(buf);
@@ -502,6 +505,9 @@ TEST_CASE("operator_instruction_t round-trips every field", "[unit]") {
   REQUIRE(got.obstacle_index == sent.obstacle_index);
   REQUIRE(got.limit_margin == sent.limit_margin);
   REQUIRE(got.limit_joint == sent.limit_joint);
+  REQUIRE(got.envelope_distance == sent.envelope_distance);
+  REQUIRE(got.envelope_limit == sent.envelope_limit);
+  REQUIRE(got.envelope_wall == sent.envelope_wall);
   REQUIRE(got.load_moment_pct == sent.load_moment_pct);
   require_truncations_rejected<mgc::operator_instruction_t>(buf);
 }

@@ -57,6 +57,12 @@ struct ControllerConfig {
   //! A repair after a safety stop waits until no obstacle moves faster than its floor plus this:
   //! a path planned around an obstacle still on its way would be cut again at once. [m/s]
   double settled_speed_m_s = 0.2;
+  //! The planner keeps every monitored point this far inside the scenario's working envelope: the
+  //! planning world's edge checks leave up to half its dilation between samples, and the follower
+  //! may lag; so a planned motion never reaches the limit, where the limiter cuts it. [m]
+  double envelope_planning_margin_m = 1.25;
+  //! The same for an escape plan, above half the escape world's dilation. [m]
+  double envelope_escape_margin_m = 0.5;
   guidance::StopCheckConfig stop_check{};
   //! num_joints and uwb_required are set from the scenario.
   guidance::SupervisorConfig supervisor{};
@@ -93,6 +99,8 @@ struct ControllerStats {
   double min_clearance_m = 1e9;  //!< least clearance the stop check reported while moving [m]
   std::uint64_t planner_cycles = 0;  //!< cycles with a planner slice
   std::uint64_t rcl_cut_cycles = 0;  //!< cycles in which the load chart cut a motion
+  std::uint64_t envelope_cut_cycles = 0;  //!< cycles in which the working envelope slowed or cut a joint moving faster than rest_speed
+  double min_envelope_m = 1e9;  //!< least envelope distance of a monitored point while moving (1e9: no envelope) [m]
   std::uint64_t estimate_invalid_cycles = 0;  //!< cycles without a valid position of every joint
   std::uint64_t trajectory_errors = 0;  //!< cycles whose setpoint generator refused its input
 };
@@ -114,6 +122,9 @@ class Controller {
   [[nodiscard]] const ControllerStats& stats() const noexcept { return stats_; }
   [[nodiscard]] guidance::Supervisor& supervisor() noexcept { return supervisor_; }
   [[nodiscard]] const guidance::StopCheckResult& stop_check() const noexcept { return check_; }
+  //! The working-envelope limiter's verdict on the last command (nothing when the site has no envelope).
+  [[nodiscard]] const guidance::EnvelopeResult& envelope() const noexcept { return envelope_result_; }
+  [[nodiscard]] bool has_envelope() const noexcept { return envelope_ != nullptr; }
   [[nodiscard]] const planning::MachineModel& model() const noexcept { return *model_; }
   //! The planner whose path the machine follows.
   [[nodiscard]] const planning::Replanner& planner() const noexcept { return *active_; }
@@ -172,6 +183,13 @@ class Controller {
   };
   std::vector<PoseHistory> histories_;  //!< one per tracker
   double obstacle_speed_m_s_ = 0.0;     //!< what the stop check assumes this cycle
+  //! The scenario's working envelope (null: none): the limiter, and the stop check's sweep.
+  std::unique_ptr<guidance::Envelope> envelope_;
+  guidance::EnvelopeResult envelope_result_{};
+  bool envelope_slowing_ = false;  //!< this cycle's command was slowed toward a limit (beyond rest_speed)
+  //! The envelope as the planning and escape worlds' rule, each with its margin.
+  std::unique_ptr<guidance::EnvelopeRule> plan_rule_;
+  std::unique_ptr<guidance::EnvelopeRule> escape_rule_;
   guidance::StopCheck stop_check_;
   guidance::StopCheckResult check_{};
   std::unique_ptr<guidance::RatedCapacityLimiter> rcl_;
@@ -204,11 +222,12 @@ class Controller {
   std::array<guidance::JointState, kMaxJoints> next_{};
   std::array<double, kMaxJoints> v_target_{};
   planning::JointVector v_command_;  //!< for the load chart's cut
+  planning::JointVector v_probe_;    //!< a velocity the envelope is asked about
   int moving_joint_ = -1;
   std::uint32_t plan_id_ = 0;
 
   // Alerts: one slot per kind, an id from raise to clear.
-  static constexpr std::size_t kAlertKinds = 7;
+  static constexpr std::size_t kAlertKinds = 8;
   std::array<SnapshotAlert, kAlertKinds> alerts_{};
   std::array<bool, kAlertKinds> alert_active_{};
   std::array<std::int64_t, kAlertKinds> alert_seen_us_{};  //!< when each condition was last true [µs]

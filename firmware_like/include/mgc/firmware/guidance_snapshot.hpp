@@ -92,6 +92,9 @@ struct GuidanceSnapshot {
   std::int32_t obstacle_index = -1;   //!< [-]
   double limit_margin = kNaN;         //!< nearest joint to its range limit [rad | m]
   std::int8_t limit_joint = -1;       //!< [-]
+  double envelope_distance_m = kNaN;  //!< nearest monitored point to a working-envelope limit, positive inside [m]
+  std::int8_t envelope_limit = 0;     //!< operator_instruction_t::ENVELOPE_* [enum]
+  std::int8_t envelope_wall = -1;     //!< [-]
 
   // Alerts active this cycle.
   int num_alerts = 0;                 //!< 0..kSnapshotMaxAlerts [-]
