@@ -10,6 +10,7 @@
 #include <numbers>
 #include <vector>
 
+#include "envelope_rule.hpp"
 #include "plan_json.hpp"
 #include "mgc/planning/excavator.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
@@ -47,6 +48,7 @@ struct SubtaskResult {
 
 int run_cycle_plan(const CyclePlanOptions& options) {
   auto loaded = io::load_and_build(options.scenario);
+  const auto envelope = keep_envelope(loaded, options.envelope_margin_m);
   const Scenario& s = loaded.scenario;
   if (!s.work_cycle) {
     std::fprintf(stderr, "%s: work_cycle: expected a work_cycle section for --cycle (docs/scenario-format.md), got none\n",

@@ -17,6 +17,7 @@ struct CyclePlanOptions {
   std::string svg;
   bool svg_tree = false;
   bool smooth = true;
+  double envelope_margin_m = 1.25;  //!< the working envelope kept by this much (envelope_rule.hpp) [m]
 };
 
 //! Plans the scenario's work cycle (seed 003: move-to-dump, dump, return) with `nonuniform` and

@@ -18,6 +18,7 @@
 #include <string>
 
 #include "cycle_plan.hpp"
+#include "envelope_rule.hpp"
 #include "json_writer.hpp"
 #include "plan_json.hpp"
 #include "svg_view.hpp"
@@ -47,8 +48,9 @@ std::string format_configuration(const MachineModel& model, const JointVector& q
   return s.str();
 }
 
-int run_check(const std::string& scenario_file) {
+int run_check(const std::string& scenario_file, double envelope_margin_m) {
   auto loaded = mgc::planning::io::load_and_build(scenario_file);
+  const auto envelope = mgc::tools::keep_envelope(loaded, envelope_margin_m);
   const auto& s = loaded.scenario;
   const MachineModel& model = *loaded.model;
   auto& world = *loaded.world;
@@ -62,6 +64,25 @@ int run_check(const std::string& scenario_file) {
   }
   std::printf("obstacles  %d static, %d dynamic; dilation %.2f m\n", world.num_static(), world.num_dynamic(),
               world.dilation_m());
+  if (s.envelope) {
+    const auto& e = *s.envelope;
+    std::string points;
+    for (const auto& p : e.points) points += (points.empty() ? "" : ", ") + p;
+    std::string limits;
+    const auto add = [&limits](const std::string& text) { limits += (limits.empty() ? "" : ", ") + text; };
+    char buf[96];
+    if (e.height_ceiling_m) add((std::snprintf(buf, sizeof buf, "ceiling %.2f m", *e.height_ceiling_m), buf));
+    if (e.depth_floor_m) add((std::snprintf(buf, sizeof buf, "floor %.2f m", *e.depth_floor_m), buf));
+    if (e.slew_left_rad) {
+      add((std::snprintf(buf, sizeof buf, "slew %.1f..%.1f deg", *e.slew_right_rad * 180.0 / std::numbers::pi,
+                         *e.slew_left_rad * 180.0 / std::numbers::pi),
+           buf));
+    }
+    if (e.radius_min_m) add((std::snprintf(buf, sizeof buf, "radius >= %.2f m", *e.radius_min_m), buf));
+    if (e.radius_max_m) add((std::snprintf(buf, sizeof buf, "radius <= %.2f m", *e.radius_max_m), buf));
+    if (!e.walls.empty()) add(std::to_string(e.walls.size()) + (e.walls.size() == 1 ? " wall" : " walls"));
+    std::printf("envelope   %s on %s; kept by %.2f m\n", limits.c_str(), points.c_str(), envelope_margin_m);
+  }
 
   const auto errors = mgc::planning::io::check_endpoints(loaded);
   const auto report = [&](const char* label, const JointVector& q) {
@@ -110,6 +131,7 @@ struct PlanOptions {
   std::string svg;
   bool svg_tree = false;
   bool smooth = true;
+  double envelope_margin_m = mgc::tools::kControllerEnvelopeMarginM;
 };
 
 int run_plan(const PlanOptions& options) {
@@ -122,6 +144,7 @@ int run_plan(const PlanOptions& options) {
     return 2;
   }
   auto loaded = io::load_and_build(options.scenario);
+  const auto envelope = mgc::tools::keep_envelope(loaded, options.envelope_margin_m);
   const auto errors = io::check_endpoints(loaded);
   if (!errors.empty()) {
     for (const auto& e : errors) std::fprintf(stderr, "%s\n", e.what());
@@ -281,6 +304,9 @@ int main(int argc, char** argv) {
   app.add_flag("--svg-tree", options.svg_tree, "also draw the planner's tree in the --svg views");
   bool no_smooth = false;
   app.add_flag("--no-smooth", no_smooth, "keep the planner's raw path (default: shortcut-smoothed)");
+  app.add_option("--envelope-margin", options.envelope_margin_m,
+                 "keep the scenario's working envelope (its envelope section) by this much [m] (default 1.25, as mgc)")
+      ->check(CLI::NonNegativeNumber);
   std::string trace;
   app.add_option("--trace", trace, "draw a controller run instead of planning: the trace of mgc --trace-csv, into --svg");
   bool cycle = false;
@@ -329,10 +355,14 @@ int main(int argc, char** argv) {
       cycle_options.svg = options.svg;
       cycle_options.svg_tree = options.svg_tree;
       cycle_options.smooth = options.smooth;
+      cycle_options.envelope_margin_m = options.envelope_margin_m;
       return mgc::tools::run_cycle_plan(cycle_options);
     }
-    return check ? run_check(options.scenario) : run_plan(options);
+    return check ? run_check(options.scenario, options.envelope_margin_m) : run_plan(options);
   } catch (const mgc::planning::io::InputError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 2;
+  } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;
   }
