@@ -310,9 +310,11 @@ void Controller::run_safety() noexcept {
     rcl_result_ = rcl_->limit_velocity(q_wrapped_, rcl_->task_load_lb(), v_command_);
   }
   if (envelope_) {
-    // The motion now commanded: the command path below cuts the next one.
-    for (int j = 0; j < n_; ++j) v_probe_[j] = limiter_.velocity()[static_cast<std::size_t>(j)];
-    envelope_result_ = envelope_->limit_velocity(q_wrapped_, v_probe_);
+    // Where the machine stands; the command path below cuts this cycle's command.
+    envelope_result_ = guidance::EnvelopeResult{};
+    envelope_result_.joint_scale.fill(1.0);
+    envelope_result_.nearest = envelope_->nearest(q_wrapped_);
+    envelope_result_.violated = envelope_result_.nearest.limit != guidance::EnvelopeLimit::None && envelope_result_.nearest.distance_m < 0.0;
   }
 }
 

@@ -143,6 +143,19 @@ EnvelopeResult Envelope::limit_velocity(const planning::JointVector& q,
   result.joint_scale.fill(1.0);
   model_.forward_kinematics(q, kinematics_);
 
+  // Every limit beyond the slowdown band cuts nothing: the distances alone settle it, without the
+  // 2 dof forward kinematics of the gradients.
+  const double band_m = std::max(config_.slowdown_band_m, 1e-9);
+  for (int i = 0; i < config_.point_count; ++i) {
+    const int point = config_.points[static_cast<std::size_t>(i)];
+    for_each_limit(kinematics_.points[static_cast<std::size_t>(point)], nullptr, point,
+                   [&](const EnvelopeDistance& d, const std::array<double, kMaxJoints>&) {
+                     if (result.nearest.limit == EnvelopeLimit::None || d.distance_m < result.nearest.distance_m) result.nearest = d;
+                   });
+  }
+  if (result.nearest.limit == EnvelopeLimit::None || result.nearest.distance_m >= band_m) return result;
+  result.nearest = EnvelopeDistance{};
+
   // d(point)/dq_j for every monitored point by central differences: 2 dof forward kinematics.
   std::array<std::array<Eigen::Vector3d, kMaxJoints>, EnvelopeConfig::kMaxPoints> dp{};
   const double h = config_.gradient_step;
@@ -164,7 +177,6 @@ EnvelopeResult Envelope::limit_velocity(const planning::JointVector& q,
     q_step[j] = q[j];
   }
 
-  const double band_m = std::max(config_.slowdown_band_m, 1e-9);
   for (int i = 0; i < config_.point_count; ++i) {
     const int point = config_.points[static_cast<std::size_t>(i)];
     for_each_limit(kinematics_.points[static_cast<std::size_t>(point)], &dp[static_cast<std::size_t>(i)], point,
