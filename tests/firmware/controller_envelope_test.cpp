@@ -52,6 +52,19 @@ planning::PlannerStatus solve(planning::Planner& planner, const planning::Planni
   return status;
 }
 
+//! One cycle of the controller on the rig: the scenario's goal requested once in HOLD, the
+//! commands written to the bus.
+void drive(firmware::Controller& controller, SimRig& rig, bool& goal_sent, const hal::SensorSnapshot& s) {
+  firmware::ControllerCommands commands;
+  if (!goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
+    commands.goal_request = true;
+    goal_sent = true;
+  }
+  const firmware::ControllerOutput out = controller.step(s, rig.cycle_us, commands, false);
+  if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+  for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
+}
+
 }  // namespace
 
 TEST_CASE("the scenario's envelope binds: the plain lift swings over the road", "[firmware][envelope]") {
@@ -99,14 +112,7 @@ TEST_CASE("the controller completes the lift inside the working envelope", "[fir
   int wall_reports = 0;
   int envelope_alerts = 0;
   rig.on_cycle = [&](const hal::SensorSnapshot& s) {
-    firmware::ControllerCommands commands;
-    if (!goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
-      commands.goal_request = true;
-      goal_sent = true;
-    }
-    const firmware::ControllerOutput out = controller.step(s, rig.cycle_us, commands, false);
-    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
-    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
+    drive(controller, rig, goal_sent, s);
     // Every plan the machine follows, re-checked densely once.
     const firmware::GuidanceSnapshot& snap = controller.snapshot();
     if (snap.plan.plan_id != plan_checked && controller.planner().path().size() > 1) {
@@ -176,14 +182,7 @@ TEST_CASE("under a low ceiling the controller slows only the motions toward it",
   int boom_up_cuts = 0;
   int slow_down_alerts = 0;
   rig.on_cycle = [&](const hal::SensorSnapshot& s) {
-    firmware::ControllerCommands commands;
-    if (!goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
-      commands.goal_request = true;
-      goal_sent = true;
-    }
-    const firmware::ControllerOutput out = controller.step(s, rig.cycle_us, commands, false);
-    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
-    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
+    drive(controller, rig, goal_sent, s);
     if (controller.supervisor().state() == guidance::SupervisorState::Executing) {
       // The limiter's verdict on this cycle's command: a cut joint must be one raising the tip.
       const guidance::EnvelopeResult& e = controller.envelope();
