@@ -124,6 +124,10 @@ void Envelope::for_each_limit(const Eigen::Vector3d& p_world, const std::array<E
 
 EnvelopeDistance Envelope::nearest(const planning::JointVector& q) noexcept {
   model_.forward_kinematics(q, kinematics_);
+  return nearest_posed();
+}
+
+EnvelopeDistance Envelope::nearest_posed() const noexcept {
   EnvelopeDistance best;
   for (int i = 0; i < config_.point_count; ++i) {
     const int point = config_.points[static_cast<std::size_t>(i)];
@@ -146,13 +150,7 @@ EnvelopeResult Envelope::limit_velocity(const planning::JointVector& q,
   // Every limit beyond the slowdown band cuts nothing: the distances alone settle it, without the
   // 2 dof forward kinematics of the gradients.
   const double band_m = std::max(config_.slowdown_band_m, 1e-9);
-  for (int i = 0; i < config_.point_count; ++i) {
-    const int point = config_.points[static_cast<std::size_t>(i)];
-    for_each_limit(kinematics_.points[static_cast<std::size_t>(point)], nullptr, point,
-                   [&](const EnvelopeDistance& d, const std::array<double, kMaxJoints>&) {
-                     if (result.nearest.limit == EnvelopeLimit::None || d.distance_m < result.nearest.distance_m) result.nearest = d;
-                   });
-  }
+  result.nearest = nearest_posed();
   if (result.nearest.limit == EnvelopeLimit::None || result.nearest.distance_m >= band_m) return result;
   result.nearest = EnvelopeDistance{};
 

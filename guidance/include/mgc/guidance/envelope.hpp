@@ -104,6 +104,8 @@ class Envelope {
   [[nodiscard]] const EnvelopeConfig& config() const noexcept { return config_; }
 
  private:
+  //! nearest() at the configuration kinematics_ holds.
+  [[nodiscard]] EnvelopeDistance nearest_posed() const noexcept;
   //! Every enabled limit at one point: distance and its gradient over the joints, via `visit`.
   template <typename Visit>
   void for_each_limit(const Eigen::Vector3d& p_world, const std::array<Eigen::Vector3d, kMaxJoints>* dp, int point,
