@@ -22,6 +22,12 @@ guidance::ValveHealth valve_health(const hal::SensorSnapshot& s) noexcept {
   if (s.valve_status_valid && s.valve_status.state == hal::pdo::ValveState::FailSafe) return guidance::ValveHealth::FailSafe;
   if (s.valve.health == hal::Health::Faulted) return guidance::ValveHealth::Faulted;
   if (s.valve_active()) return guidance::ValveHealth::Active;
+  // Operational by its heartbeat and heard from before, but its status is old: not a node that
+  // left Active (that one says so in its heartbeat or its status), one whose reports stopped.
+  if (s.valve.health == hal::Health::Alive && s.valve.nmt_state == hal::canopen::NmtState::Operational && !s.valve_status_valid &&
+      s.valve_status_t_us != 0) {
+    return guidance::ValveHealth::StatusStale;
+  }
   return guidance::ValveHealth::NotStarted;
 }
 

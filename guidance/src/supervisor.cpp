@@ -39,7 +39,8 @@ const char* device_text(TransitionReason reason) noexcept {
     case TransitionReason::ValveHeartbeatLost:
     case TransitionReason::ValveFailSafe:
     case TransitionReason::ValveFaulted:
-    case TransitionReason::ValveNotActive: return "valve";
+    case TransitionReason::ValveNotActive:
+    case TransitionReason::ValveStatusStale: return "valve";
     case TransitionReason::BusOff: return "can bus";
     case TransitionReason::UwbGatewayLost: return "uwb gateway";
     case TransitionReason::UwbSilent: return "uwb tags";
@@ -73,6 +74,7 @@ TransitionReason valve_reason(ValveHealth valve) noexcept {
     case ValveHealth::NotStarted: return TransitionReason::ValveNotActive;
     case ValveHealth::FailSafe: return TransitionReason::ValveFailSafe;
     case ValveHealth::Faulted: return TransitionReason::ValveFaulted;
+    case ValveHealth::StatusStale: return TransitionReason::ValveStatusStale;
     case ValveHealth::Active: break;
   }
   return TransitionReason::None;
@@ -134,6 +136,7 @@ const char* to_string(TransitionReason reason) noexcept {
     case TransitionReason::ValveFailSafe: return "ValveFailSafe";
     case TransitionReason::ValveFaulted: return "ValveFaulted";
     case TransitionReason::ValveNotActive: return "ValveNotActive";
+    case TransitionReason::ValveStatusStale: return "ValveStatusStale";
     case TransitionReason::BusOff: return "BusOff";
     case TransitionReason::UwbGatewayLost: return "UwbGatewayLost";
     case TransitionReason::UwbSilent: return "UwbSilent";

@@ -243,6 +243,7 @@ void Hal::update_health(std::int64_t now_us, std::int64_t data_age_ref_us) noexc
   }
 
   node_health(snap_.valve);
+  snap_.valve_status_t_us = valve_status_t_us_;
   snap_.valve_status_valid =
       valve_status_t_us_ != 0 && data_age_ref_us - valve_status_t_us_ <= timing.encoder_stale_after_us;
   if (snap_.valve.health == Health::Alive && snap_.valve_status_valid &&

@@ -97,7 +97,14 @@ TEST_CASE("sensing inputs: each Hal health and valve state maps as docs/supervis
   CHECK(firmware::sensing_inputs(s).valve == ValveHealth::NotStarted);
   s.valve_status_valid = false;
   s.valve_status.state = hal::pdo::ValveState::Active;
-  CHECK(firmware::sensing_inputs(s).valve == ValveHealth::NotStarted);  // no fresh status frame
+  s.valve.nmt_state = hal::canopen::NmtState::Operational;
+  CHECK(firmware::sensing_inputs(s).valve == ValveHealth::NotStarted);  // no status frame since start
+  // An Operational node whose status frames stopped: stale, not a node that left Active.
+  s.valve_status_t_us = 400;
+  CHECK(firmware::sensing_inputs(s).valve == ValveHealth::StatusStale);
+  s.valve.nmt_state = hal::canopen::NmtState::PreOperational;  // rebooted: it left Active
+  CHECK(firmware::sensing_inputs(s).valve == ValveHealth::NotStarted);
+  s.valve.nmt_state = hal::canopen::NmtState::Operational;
   s.valve_status_valid = true;
   s.valve_status.state = hal::pdo::ValveState::FailSafe;
   s.valve.health = hal::Health::Faulted;  // the Hal counts fail-safe as a fault too

@@ -588,6 +588,8 @@ std::vector<SensingLoss> sensing_losses(const SupervisorConfig& config) {
        TransitionReason::ValveFaulted, -1, "valve"},
       {"valve disabled", [](SupervisorInputs& in) { in.sensing.valve = ValveHealth::NotStarted; },
        TransitionReason::ValveNotActive, -1, "valve"},
+      {"valve status stale", [](SupervisorInputs& in) { in.sensing.valve = ValveHealth::StatusStale; },
+       TransitionReason::ValveStatusStale, -1, "valve"},
       {"bus-off", [](SupervisorInputs& in) { in.sensing.bus_off = true; }, TransitionReason::BusOff, -1, "can bus"},
       {"uwb gateway lost", [](SupervisorInputs& in) { in.sensing.uwb_gateway = DeviceHealth::Missing; },
        TransitionReason::UwbGatewayLost, -1, "uwb gateway"},

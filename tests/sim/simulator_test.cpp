@@ -34,6 +34,7 @@ TEST_CASE("before NMT start the nodes only send heartbeats, after it, every join
     CHECK_FALSE(before.joints[j].valid);
   }
   CHECK_FALSE(before.valve_active());
+  CHECK(before.valve_status_t_us == 0);  // a pre-operational node sends no status
   CHECK(rig.sim->counters().commands_ignored > 0);  // commands before start are not applied
 
   REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0) == hal::Status::Ok);
@@ -41,6 +42,8 @@ TEST_CASE("before NMT start the nodes only send heartbeats, after it, every join
   const hal::SensorSnapshot& after = *rig.last;
   REQUIRE(after.all_joints_valid());
   CHECK(after.valve_active());
+  CHECK(after.valve_status_t_us > 0);
+  CHECK(rig.hal->snapshot().t_us - after.valve_status_t_us <= SimRig::kCycleUs);
   CHECK(after.uwb_gateway.health == Health::Alive);
   for (std::size_t j = 0; j < after.num_joints; ++j) {
     // Quantisation only (noise is off): 0.001 deg or 0.1 mm.

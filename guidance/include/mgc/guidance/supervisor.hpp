@@ -68,6 +68,9 @@ enum class TransitionReason : std::uint8_t {
   //! REPLANNING -> HOLD: the repair refused where the machine stopped (InvalidStart), e.g. inside
   //! the margin the planner keeps from a moving obstacle; a retry is scheduled as for GoalOccupied.
   StartBlocked,
+  //! The valve node's heartbeat says Operational, but its status frames stopped (or the bus holds
+  //! them back): whether it still follows the commands is unknown. A loss of sensing.
+  ValveStatusStale,
 };
 [[nodiscard]] const char* to_string(TransitionReason reason) noexcept;
 
@@ -88,6 +91,7 @@ enum class ValveHealth : std::uint8_t {
   Active,       //!< SensorSnapshot::valve_active(): following commands
   FailSafe,     //!< status FailSafe: it neutralised after losing the controller; a restart clears it
   Faulted,      //!< EMCY other than its fail-safe ones, status Fault, or a joint fault bit
+  StatusStale,  //!< heartbeat fresh and Operational, but no status frame within the stale limit after earlier ones
 };
 
 //! Sensing health for one cycle, from the Hal's SensorSnapshot.

@@ -87,6 +87,7 @@ struct SensorSnapshot {
 
   pdo::ValveStatus valve_status{};   //!< last status frame
   bool valve_status_valid = false;   //!< a status frame newer than the encoder stale limit
+  std::int64_t valve_status_t_us = 0;  //!< receive time of the last status frame; 0 = none since start [µs]
   std::array<double, kMaxBusJoints> valve_applied_fraction{};  //!< spools in force, -1..1 [-]
 
   std::size_t num_tags = 0;          //!< tags seen since start, in order of first sight
