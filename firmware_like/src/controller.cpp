@@ -649,7 +649,9 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
       for (int j = 0; j < n_; ++j) w[2][static_cast<std::size_t>(j)] = next[j];
       count = 3;
     }
-    (void)next_moves_in_words(model_->kind(), n_, std::span<const double>(snap_.joint_position.data(), static_cast<std::size_t>(n_)),
+    // From the unwrapped position: the waypoints are unwrapped, and a wrapped swing past half a
+    // turn would read as a whole turn more.
+    (void)next_moves_in_words(model_->kind(), n_, std::span<const double>(w[0].data(), static_cast<std::size_t>(n_)),
                               std::span<const std::array<double, kMaxJoints>>(w.data(), count), 0, 2,
                               std::span<char>(snap_.instruction_text.data(), snap_.instruction_text.size()));
   }

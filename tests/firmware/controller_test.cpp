@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <numbers>
@@ -39,6 +40,8 @@ struct Run {
   double min_true_dynamic_m = std::numeric_limits<double>::infinity();  //!< to the intruder alone
   bool goal_sent = false;
   bool request_goal = true;
+  //! Largest swing the operator was told to make in one move. [deg]
+  double max_said_swing_deg = 0.0;
   std::vector<std::string> transitions;
   std::int64_t done_us = -1;
 
@@ -72,6 +75,13 @@ struct Run {
                                  : std::string()));
     }
     if (out.supervisor.reason == guidance::TransitionReason::GoalReached && done_us < 0) done_us = s.t_us;
+    for (const char* words = controller.snapshot().instruction_text.data(); (words = std::strstr(words, "swing ")) != nullptr;) {
+      words += 6;
+      double deg = 0.0;
+      if (std::sscanf(words, "left %lf deg", &deg) == 1 || std::sscanf(words, "right %lf deg", &deg) == 1) {
+        max_said_swing_deg = std::max(max_said_swing_deg, deg);
+      }
+    }
     if (s.cycle % static_cast<std::uint64_t>(50'000 / rig.cycle_us) == 0) {
       const auto& truth = rig.sim->truth();
       planning::JointVector q(controller.num_joints());
@@ -112,6 +122,10 @@ TEST_CASE("the controller completes the thesis lift with the second crane swingi
   CHECK(st.replans >= 1);
   CHECK(st.goals_reached == 1);
   CHECK(st.trajectory_errors == 0);
+  // The lift swings about 120 deg, through the half turn where the wrapped angle jumps: no single
+  // move may be said as more than that.
+  CHECK(run.max_said_swing_deg > 30.0);
+  CHECK(run.max_said_swing_deg < 180.0);
   // Never closer to the true site and the true crane 2 than the stop margin.
   CAPTURE(run.min_true_dynamic_m);
   CHECK(run.min_true_clearance_m > firmware::ControllerConfig{}.stop_check.stop_margin_m);
@@ -255,4 +269,3 @@ TEST_CASE("the controller replays the same inputs to bit-identical outputs", "[f
   CAPTURE(inputs.size(), first_mismatch);
   CHECK(mismatches == 0);
 }
-
