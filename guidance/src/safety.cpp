@@ -65,9 +65,11 @@ StopCheck::Sample StopCheck::measure_full(const planning::JointVector& q, double
   Sample s;
   s.contact = world_.clearance(q, bodies, Obstacles::Static);
   s.clearance_m = s.contact.distance_m;
+  s.geometric_m = s.contact.distance_m;
   if (s.contact.with == planning::Contact::With::Dynamic) s.clearance_m -= reach_m;
   if (world_.num_dynamic() > 0 && s.clearance_m > 0.0) {
     const planning::Clearance dynamic = world_.clearance(q, bodies, Obstacles::Dynamic);
+    s.geometric_m = std::min(s.geometric_m, dynamic.distance_m);
     const double dynamic_m = dynamic.with == planning::Contact::With::Dynamic ? dynamic.distance_m - reach_m : dynamic.distance_m;
     if (dynamic_m < s.clearance_m) {
       s.contact = dynamic;
@@ -101,6 +103,8 @@ StopCheck::Sample StopCheck::measure(const planning::JointVector& q, bool bounde
   s.contact = st;  // a static obstacle within the bound, or none: then at least the bound
   s.clearance_m = st.with == Contact::With::Static ? st.distance_m : bound_m;
   s.bounded = st.with != Contact::With::Static;
+  // Without a dynamic obstacle its bound is 0: no distance.
+  s.geometric_m = world_.num_dynamic() > 0 ? std::min(st.distance_m, dy.distance_m) : st.distance_m;
   if (dy.with == Contact::With::Dynamic && dy.distance_m - reach_m < s.clearance_m) {
     s.contact = dy;
     s.clearance_m = dy.distance_m - reach_m;
@@ -151,6 +155,7 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
   // The fixed bodies' clearance, once per check: to the static obstacles it was measured at
   // construction; only a dynamic obstacle's approach can change it.
   double fixed_m = kFar;
+  double fixed_geometric_m = kFar;
   planning::Clearance fixed;
   if (config_.fixed_bodies_once) {
     for (int j = 0; j < n; ++j) q[j] = state.joints[static_cast<std::size_t>(j)].position;
@@ -162,6 +167,8 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
             : world_.clearance(q, Bodies::Fixed, planning::CollisionWorld::Obstacles::Dynamic);
     fixed = fixed_static_;
     fixed_m = fixed_static_.distance_m;
+    if (dynamic.with == planning::Contact::With::Dynamic) fixed_geometric_m = std::min(fixed_m, dynamic.distance_m);
+    else fixed_geometric_m = fixed_m;
     if (dynamic.with == planning::Contact::With::Dynamic && dynamic.distance_m - dynamic_reach_m < fixed_m) {
       fixed = dynamic;
       fixed_m = dynamic.distance_m - dynamic_reach_m;
@@ -189,6 +196,7 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
   EnvelopeDistance prev_limit;
   double prev_t_s = 0.0;
   r.min_clearance_m = kFar;
+  r.min_geometric_m = kFar;
   double min_envelope_m = kFar;
   for (;;) {
     at_time(t_s, q);
@@ -234,6 +242,10 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
       r.nearest = earlier ? prev.contact : cur.contact;
       r.nearest_time_s = earlier ? prev_t_s : t_s;
     }
+    const double geometric_m =
+        interval ? std::min({prev.geometric_m, cur.geometric_m, 0.5 * (prev.geometric_m + cur.geometric_m - rate_m_s * (t_s - prev_t_s))})
+                 : std::min(cur.geometric_m, fixed_geometric_m);
+    r.min_geometric_m = std::min(r.min_geometric_m, geometric_m);
     if (!interval && fixed_m < r.min_clearance_m) {
       r.min_clearance_m = fixed_m;
       r.nearest = fixed;
@@ -245,7 +257,10 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
       r.envelope.distance_m = envelope_bound_m;
     }
     // Once the stop is certain the rest of the sweep changes nothing.
-    if (r.min_clearance_m < config_.stop_margin_m || min_envelope_m < -config_.envelope_stop_margin_m) break;
+    if ((r.min_clearance_m < config_.stop_margin_m && r.min_geometric_m < retreat_floor_m_) ||
+        min_envelope_m < -config_.envelope_stop_margin_m) {
+      break;
+    }
     if (t_s >= r.stop_duration_s) break;
 
     const double clearance_m = cur.clearance_m;
@@ -265,14 +280,21 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
 
   const bool envelope_crossed =
       r.envelope.limit != EnvelopeLimit::None && r.envelope.distance_m < -config_.envelope_stop_margin_m;
-  if (r.min_clearance_m < config_.stop_margin_m || envelope_crossed) {
+  const bool undercut = r.min_clearance_m < config_.stop_margin_m;
+  const bool retreating = std::isfinite(retreat_floor_m_);
+  if ((undercut && r.min_geometric_m < retreat_floor_m_) || envelope_crossed) {
     r.status = StopCheckStatus::Stop;
     r.speed_scale = 0.0;
     r.replan = true;
+  } else if (undercut) {
+    r.status = StopCheckStatus::Warning;
+    r.speed_scale = std::clamp(config_.retreat_speed_scale, 0.0, 1.0);
+    r.retreat = true;
   } else if (r.min_clearance_m < config_.warning_margin_m) {
     r.status = StopCheckStatus::Warning;
     const double band_m = std::max(config_.warning_margin_m - config_.stop_margin_m, 1e-9);
     r.speed_scale = std::clamp((r.min_clearance_m - config_.stop_margin_m) / band_m, 0.0, 1.0);
+    if (retreating) r.speed_scale = std::max(r.speed_scale, std::clamp(config_.retreat_speed_scale, 0.0, 1.0));
   }
   return r;
 }

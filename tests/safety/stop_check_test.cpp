@@ -3,6 +3,8 @@
 // the dynamic obstacle. Defaults: stop margin 0.5 m, warning margin 1.0 m, crane-2 reach 1 m/s.
 #include <catch2/catch.hpp>
 
+#include <limits>
+
 #include "fixture.hpp"
 #include "mgc/guidance/safety.hpp"
 
@@ -219,4 +221,49 @@ TEST_CASE("stop check: a dynamic obstacle farther than the nearest static one st
   CHECK(c.status == StopCheckStatus::Stop);
   CHECK(c.nearest.with == Contact::With::Dynamic);
   CHECK(b.min_clearance_m == Approx(c.min_clearance_m).margin(1e-6));
+}
+
+TEST_CASE("stop check: with a retreat floor a machine inside the stop margin may move away but not nearer", "[unit]") {
+  ThesisCrane t;
+  planning::CollisionWorld& world = *t.loaded.world;
+  // Crane-2's load 2.45 m south of ours: about 0.3 m clear at rest, inside the stop margin. Slewing
+  // positive at swing 180 deg carries our load south, toward it; negative, away.
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(-18.1 - 18.38, -2.45, 7.0 - 5.38);
+  world.set_dynamic_pose(0, pose);
+  StopCheck check(world, nullptr, StopCheckConfig{});
+  const StopCheckResult rest = check.check(state(180, 0));
+  REQUIRE(rest.nearest.with == Contact::With::Dynamic);
+  REQUIRE(rest.min_clearance_m < 0.5);
+  REQUIRE(rest.min_clearance_m > 0.1);
+  // At rest nothing lessens the clearance by a reach.
+  CHECK(rest.min_geometric_m == Approx(rest.min_clearance_m).margin(1e-9));
+
+  // Without a floor every motion from here is a stop, away too.
+  const double slow_deg_s = 0.5;
+  CHECK(check.check(state(180, -slow_deg_s)).status == StopCheckStatus::Stop);
+  CHECK(check.check(state(180, slow_deg_s)).status == StopCheckStatus::Stop);
+
+  check.set_retreat_floor(rest.min_geometric_m - 0.1);
+  const StopCheckResult away = check.check(state(180, -slow_deg_s));
+  CAPTURE(away.min_clearance_m, away.min_geometric_m);
+  CHECK(away.status == StopCheckStatus::Warning);
+  CHECK(away.retreat);
+  CHECK_FALSE(away.replan);
+  CHECK(away.speed_scale == StopCheckConfig{}.retreat_speed_scale);
+  // Its own motion keeps what it had; only the assumed reach of crane-2 puts it inside the margin.
+  CHECK(away.min_clearance_m < 0.5);
+  CHECK(away.min_geometric_m >= rest.min_geometric_m - 0.1);
+
+  // Toward it, braking from a swing fast enough to come more than the 0.1 m nearer.
+  const StopCheckResult toward = check.check(state(180, 4.0 * slow_deg_s));
+  CAPTURE(toward.min_geometric_m);
+  CHECK(toward.status == StopCheckStatus::Stop);
+  CHECK(toward.replan);
+  CHECK_FALSE(toward.retreat);
+  CHECK(toward.min_geometric_m < rest.min_geometric_m - 0.1);
+
+  // Back to the default: away is a stop again.
+  check.set_retreat_floor(std::numeric_limits<double>::infinity());
+  CHECK(check.check(state(180, -slow_deg_s)).status == StopCheckStatus::Stop);
 }

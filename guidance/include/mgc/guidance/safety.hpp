@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 
 #include "mgc/guidance/envelope.hpp"
 #include "mgc/guidance/trajectory.hpp"
@@ -41,6 +42,9 @@ struct StopCheckConfig {
   int max_samples = 64;
   //! The envelope may be crossed by at most this along the stop (0: not at all). [m]
   double envelope_stop_margin_m = 0.0;
+  //! Speed scale for a motion the retreat floor lets through (StopCheck::set_retreat_floor): within
+  //! the stop margin but not nearer than the floor, and as the least scale in the warning zone. [-]
+  double retreat_speed_scale = 0.25;
   //! Measure the machine's fixed bodies (a carrier) once per check rather than at every sample:
   //! the stopping motion cannot move them, so only the moving bodies' clearance sets the step. Off
   //! only to compare against the all-bodies sweep (mgc-bench --suite safety).
@@ -78,6 +82,13 @@ struct StopCheckResult {
   //! With bounded_queries, exact below max(warning margin, exact_clearance_m); at or above that a
   //! lower bound of the exact value, itself at least that (StopCheckConfig::exact_clearance_m). [m]
   double min_clearance_m = 0.0;
+  //! Least clearance along the stop as measured, a dynamic obstacle's not lessened by its reach:
+  //! what the machine's own motion comes to (the same conservative interval bound). On Stop, up to
+  //! where the sweep ended. [m]
+  double min_geometric_m = 0.0;
+  //! The stop margin was undercut but the retreat floor kept: the motion does not come nearer, so
+  //! it goes on at retreat_speed_scale instead of stopping (status Warning).
+  bool retreat = false;
   //! What is nearest at that sample (With::Nothing: with bounded_queries, nothing within the
   //! sample's bound there, only when min_clearance_m is at least exact_clearance_m).
   planning::Clearance nearest;
@@ -108,6 +119,14 @@ class StopCheck {
   //! How fast the dynamic obstacles may approach from the next check on, e.g. from their tracked
   //! motion (the configured value is the default until then). [m/s], >= 0
   void set_dynamic_obstacle_speed(double speed_m_s) noexcept { config_.dynamic_obstacle_speed_m_s = speed_m_s; }
+  //! A machine that must get away from an obstacle it stopped next to (docs/safety.md, "Retreat"):
+  //! from the next check on, a stop that undercuts the stop margin is a Stop only when the machine's
+  //! own motion also brings it nearer than floor_m (min_geometric_m < floor_m); otherwise the
+  //! motion goes on at retreat_speed_scale, and a Warning is never slower than that. A stop
+  //! cannot get the machine away from where an obstacle already is, only moving away can.
+  //! +infinity (the default): every undercut is a Stop. [m]
+  void set_retreat_floor(double floor_m) noexcept { retreat_floor_m_ = floor_m; }
+  [[nodiscard]] double retreat_floor() const noexcept { return retreat_floor_m_; }
   //! The braking profile of joint j from the last check.
   [[nodiscard]] const Profile& stop_profile(int j) const noexcept { return profiles_[static_cast<std::size_t>(j)]; }
   //! Full clearance queries (CollisionWorld::clearance) the last check made: with bounded_queries
@@ -120,6 +139,7 @@ class StopCheck {
   struct Sample {
     planning::Clearance contact;
     double clearance_m = 0.0;
+    double geometric_m = 0.0;  //!< the nearest obstacle of either kind, not lessened by a reach
     bool bounded = false;  //!< only known to be at least clearance_m (nothing nearer than the bound)
   };
   [[nodiscard]] Sample measure(const planning::JointVector& q, bool bounded, double bound_m, double reach_m) noexcept;
@@ -128,6 +148,7 @@ class StopCheck {
   planning::CollisionWorld& world_;
   Envelope* envelope_;
   StopCheckConfig config_;
+  double retreat_floor_m_ = std::numeric_limits<double>::infinity();
   //! The fixed bodies' clearance to the static obstacles: constant, so measured at construction.
   planning::Clearance fixed_static_;
   std::array<JointLimits, kMaxJoints> limits_{};
