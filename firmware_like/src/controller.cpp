@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -126,6 +127,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       escape_world_(planning_world(scenario_, *model_, config.escape_margin_m, 0.0)),
       escape_problem_(planning::planning_problem(scenario_, *model_, *escape_world_)),
       escape_(planning::make_replanner(config.replanner)),
+      retreat_(std::make_unique<planning::RetreatSearch>(*safety_world_, *escape_world_, config.retreat)),
       envelope_(make_envelope(scenario_, *model_)),
       stop_check_(*safety_world_, envelope_.get(), config.stop_check),
       supervisor_(supervisor_config(config.supervisor, scenario_)),
@@ -133,6 +135,8 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       n_(model_->dof()) {
   if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
   if (config.plan_iterations_per_cycle < 1) throw std::invalid_argument("controller: plan_iterations_per_cycle must be >= 1");
+  if (config.retreat_configs_per_cycle < 1) throw std::invalid_argument("controller: retreat_configs_per_cycle must be >= 1");
+  if (!(config.retreat_floor_tolerance_m >= 0.0)) throw std::invalid_argument("controller: retreat_floor_tolerance_m must be >= 0");
   if (!(config.follow_speed_fraction > 0.0 && config.follow_speed_fraction <= 1.0)) {
     throw std::invalid_argument("controller: follow_speed_fraction must be in (0, 1]");
   }
@@ -165,7 +169,12 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   replan_settings_.goal_bias = scenario_.planner.replan_goal_bias;
   // Sizes every buffer of the re-planner now, so that the goal request in the loop does not.
   (void)replanner_->reset(problem_, replan_settings_);
-  (void)escape_->reset(escape_problem_, replan_settings_);
+  // An escape is planned from scratch round an obstacle parked next to the machine: a harder query
+  // than the first plan, with the machine at rest meanwhile, so it may take longer.
+  escape_problem_.max_iterations = std::max(escape_problem_.max_iterations, config.escape_max_iterations);
+  escape_settings_ = replan_settings_;
+  escape_settings_.max_iterations = std::max(escape_settings_.max_iterations, config.escape_max_iterations);
+  (void)escape_->reset(escape_problem_, escape_settings_);
   planner_status_ = planning::PlannerStatus::NotReset;
   active_ = replanner_.get();
 
@@ -183,6 +192,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   q_wrapped_ = q_raw_;
   goal_ = scenario_.goal;
   origin_ = q_raw_;
+  retreat_from_ = q_raw_;
   target_unwrapped_ = q_raw_;
   v_command_ = q_raw_;
   v_probe_ = q_raw_;
@@ -305,6 +315,13 @@ void Controller::run_safety() noexcept {
     state.joints[k] = {q_wrapped_[j], command_faster ? v_cmd : velocity_[k],
                        command_faster ? limiter_.acceleration()[k] : std::clamp(acceleration_[k], -a_max, a_max)};
   }
+  // Following an escape, with every obstacle settled: only a motion that comes nearer is stopped,
+  // since a stop cannot take the machine away from an obstacle that stands within the margin.
+  double floor_m = std::numeric_limits<double>::infinity();
+  if (following_ && active_ == escape_.get() && obstacles_settled()) {
+    floor_m = std::min(config_.stop_check.stop_margin_m, escape_start_m_ - config_.retreat_floor_tolerance_m);
+  }
+  stop_check_.set_retreat_floor(floor_m);
   check_ = stop_check_.check(state);
   if (rcl_) {
     rcl_result_ = rcl_->limit_velocity(q_wrapped_, rcl_->task_load_lb(), v_command_);
@@ -320,10 +337,12 @@ void Controller::run_safety() noexcept {
 
 void Controller::load_path() noexcept {
   following_ = true;
-  path_size_ = active_->path().size();
+  path_size_ = active_->path().size() + (retreat_prefix_ ? 1 : 0);
   target_ = 1;
   origin_ = q_unwrapped_;
-  target_unwrapped_ = path_size_ > 1 ? origin_ + model_->difference(active_->path()[0], active_->path()[1]) : origin_;
+  target_unwrapped_ = path_size_ > 1 ? origin_ + model_->difference(waypoint(0), waypoint(1)) : origin_;
+  // At rest, so no reach lessens it: where the escape starts.
+  escape_start_m_ = check_.min_geometric_m;
   for (int j = 0; j < n_; ++j) setpoint_[static_cast<std::size_t>(j)] = {q_unwrapped_[j], 0.0, 0.0};
   moving_joint_ = -1;
   ++plan_id_;
@@ -334,6 +353,8 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
   if (out.plan_request == guidance::PlanRequest::Plan) {
     following_ = false;
     replan_pending_ = false;
+    retreat_searching_ = false;
+    retreat_prefix_ = false;
     active_ = replanner_.get();
     problem_.start = q_wrapped_;
     problem_.goal = goal_;
@@ -342,13 +363,21 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
   } else if (out.plan_request == guidance::PlanRequest::Replan) {
     following_ = false;
     replan_pending_ = true;
+    retreat_searching_ = false;
     planner_status_ = PlannerStatus::Running;
   }
-  if (out.state != guidance::SupervisorState::Replanning) replan_pending_ = false;
-  if (replan_pending_ && obstacles_settled()) {
-    // The repair starts where the machine stopped, on its way to waypoint target_.
+  if (out.state != guidance::SupervisorState::Replanning) {
     replan_pending_ = false;
-    const int next = static_cast<int>(std::min(target_, path_size_ > 0 ? path_size_ - 1 : 0));
+    retreat_searching_ = false;
+  }
+  if (replan_pending_ && obstacles_settled()) {
+    // The repair starts where the machine stopped, on its way to waypoint target_ (the planner's
+    // target_ - 1 behind a retreat).
+    replan_pending_ = false;
+    const std::size_t planner_target = retreat_prefix_ ? (target_ > 0 ? target_ - 1 : 0) : target_;
+    const std::size_t planner_size = active_->path().size();
+    retreat_prefix_ = false;
+    const int next = static_cast<int>(std::min(planner_target, planner_size > 0 ? planner_size - 1 : 0));
     planner_status_ = active_->replan(q_wrapped_, std::max(next, 1));
     ++stats_.replans;
     if (planner_status_ == PlannerStatus::InvalidStart) {
@@ -357,13 +386,39 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
       active_ = escape_.get();
       escape_problem_.start = q_wrapped_;
       escape_problem_.goal = goal_;
-      planner_status_ = active_->reset(escape_problem_, replan_settings_);
+      planner_status_ = active_->reset(escape_problem_, escape_settings_);
       ++stats_.escapes;
+    }
+    if (planner_status_ == PlannerStatus::InvalidStart) {
+      // Too near even for the escape world: look for a single-joint move away first.
+      retreat_from_ = q_wrapped_;
+      if (retreat_->begin(q_wrapped_) == planning::RetreatSearch::Status::Running) {
+        retreat_searching_ = true;
+        planner_status_ = PlannerStatus::Running;
+      } else {
+        ++stats_.retreats_refused;
+      }
     }
   }
   const bool planning = out.state == guidance::SupervisorState::Planning || out.state == guidance::SupervisorState::Replanning;
   if (planning && !replan_pending_ && planner_status_ == PlannerStatus::Running) {
-    planner_status_ = active_->step(config_.plan_iterations_per_cycle);
+    if (retreat_searching_) {
+      const planning::RetreatSearch::Status rs = retreat_->step(config_.retreat_configs_per_cycle);
+      if (rs == planning::RetreatSearch::Status::Found) {
+        // The escape is planned from the retreat's end; the machine follows both in one path.
+        retreat_searching_ = false;
+        retreat_prefix_ = true;
+        ++stats_.retreats;
+        escape_problem_.start = retreat_->target();
+        planner_status_ = active_->reset(escape_problem_, escape_settings_);
+      } else if (rs != planning::RetreatSearch::Status::Running) {
+        retreat_searching_ = false;
+        ++stats_.retreats_refused;
+        planner_status_ = PlannerStatus::InvalidStart;
+      }
+    } else {
+      planner_status_ = active_->step(config_.plan_iterations_per_cycle);
+    }
     ++stats_.planner_cycles;
   }
 }
@@ -413,7 +468,7 @@ void Controller::follow(double dt_s, double speed_scale) noexcept {
       if (reached) {
         ++target_;
         if (target_ < path_size_) {
-          target_unwrapped_ += model_->difference(active_->path()[target_ - 1], active_->path()[target_]);
+          target_unwrapped_ += model_->difference(waypoint(target_ - 1), waypoint(target_));
         }
       }
     } else {
@@ -488,6 +543,7 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
   if (out.motion_permitted && joints_valid_ && check_.min_clearance_m < stats_.min_clearance_m) {
     stats_.min_clearance_m = check_.min_clearance_m;
   }
+  if (out.motion_permitted && joints_valid_ && check_.retreat) ++stats_.retreat_cycles;
   if (envelope_ && out.motion_permitted && joints_valid_ && envelope_result_.nearest.limit != guidance::EnvelopeLimit::None) {
     stats_.min_envelope_m = std::min(stats_.min_envelope_m, envelope_result_.nearest.distance_m);
   }
@@ -601,7 +657,7 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
     planning::JointVector w = origin_;
     std::size_t picked = 0;
     for (std::size_t i = 0; i < path_size_ && picked < count; ++i) {
-      if (i > 0) w += model_->difference(active_->path()[i - 1], active_->path()[i]);
+      if (i > 0) w += model_->difference(waypoint(i - 1), waypoint(i));
       const std::size_t want = count > 1 ? (picked * (path_size_ - 1)) / (count - 1) : 0;
       if (i != want) continue;
       for (int j = 0; j < n_; ++j) plan.positions[picked][static_cast<std::size_t>(j)] = w[j];
@@ -645,7 +701,7 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
     }
     std::size_t count = 2;
     if (target_ + 1 < path_size_) {
-      next += model_->difference(active_->path()[target_], active_->path()[target_ + 1]);
+      next += model_->difference(waypoint(target_), waypoint(target_ + 1));
       for (int j = 0; j < n_; ++j) w[2][static_cast<std::size_t>(j)] = next[j];
       count = 3;
     }

@@ -53,3 +53,34 @@ TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re
   CHECK(cycles > 30'000);
   CHECK(allocations_in_steps == 0);
 }
+
+TEST_CASE("the controller's cycle does not allocate through a retreat and an escape", "[firmware][sim][alloc]") {
+  // 28 s ahead crane 2 parks so near the stopped crane that only a retreat gets it out
+  // (controller_test.cpp): the retreat search, the escape plan with its larger cap, and the
+  // escape followed under the retreat floor.
+  sim::SimConfig config = SimRig::quiet_config();
+  config.scenario_time_offset_s = 28.0;
+  SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc-retreat");
+  firmware::Controller controller(rig.scenario, firmware::ControllerConfig{});
+  bool goal_sent = false;
+  long allocations_in_steps = 0;
+  rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+    firmware::ControllerCommands commands;
+    if (!goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
+      commands.goal_request = true;
+      goal_sent = true;
+    }
+    const long before = test::allocation_count();
+    const firmware::ControllerOutput out = controller.step(s, SimRig::kCycleUs, commands, false);
+    allocations_in_steps += test::allocation_count() - before;
+    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
+  };
+  while (controller.stats().goals_reached == 0 && rig.t_us < SimRig::at_sim_s(800.0)) rig.run(10'000'000);
+  const firmware::ControllerStats& st = controller.stats();
+  CAPTURE(st.safety_stops, st.escapes, st.retreats, st.retreat_cycles, st.goals_reached);
+  REQUIRE(st.retreats >= 1);
+  REQUIRE(st.retreat_cycles > 0);
+  REQUIRE(st.goals_reached == 1);
+  CHECK(allocations_in_steps == 0);
+}

@@ -44,6 +44,10 @@ struct Run {
   double max_said_swing_deg = 0.0;
   std::vector<std::string> transitions;
   std::int64_t done_us = -1;
+  //! The true clearance to crane 2 when the first path after a safety stop was loaded, and the
+  //! least since then. [m]
+  double dynamic_at_escape_m = std::numeric_limits<double>::quiet_NaN();
+  double dynamic_after_escape_m = std::numeric_limits<double>::infinity();
 
   Run(const char* scenario, sim::SimConfig config, const std::string& bus)
       : rig(scenario, std::move(config), bus), controller(rig.scenario, firmware::ControllerConfig{}) {
@@ -91,9 +95,13 @@ struct Run {
       }
       min_true_clearance_m = std::min(min_true_clearance_m, truth_world->clearance(q).distance_m);
       if (!rig.scenario.dynamic_obstacles.empty()) {
-        min_true_dynamic_m = std::min(min_true_dynamic_m, truth_world->clearance(q, planning::CollisionWorld::Bodies::All,
-                                                                                 planning::CollisionWorld::Obstacles::Dynamic)
-                                                              .distance_m);
+        const double dynamic_m =
+            truth_world->clearance(q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
+        min_true_dynamic_m = std::min(min_true_dynamic_m, dynamic_m);
+        if (controller.stats().safety_stops > 0 && controller.supervisor().state() == guidance::SupervisorState::Executing) {
+          if (std::isnan(dynamic_at_escape_m)) dynamic_at_escape_m = dynamic_m;
+          dynamic_after_escape_m = std::min(dynamic_after_escape_m, dynamic_m);
+        }
       }
     }
   }
@@ -268,4 +276,59 @@ TEST_CASE("the controller replays the same inputs to bit-identical outputs", "[f
   }
   CAPTURE(inputs.size(), first_mismatch);
   CHECK(mismatches == 0);
+}
+
+TEST_CASE("the controller gets away from crane 2 parked next to the stopped crane", "[firmware][sim][e2e]") {
+  // 20 s ahead, crane 2 parks its boom within the planning margin of our stopped crane: the escape
+  // plan starts there, and the stop check must let it move away rather than stop it every time
+  // (the retreat floor). 28 s ahead, it parks so near that not even the escape world accepts the
+  // start: a single-joint retreat comes first. The escape paths are long, hence the time.
+  struct Case {
+    double offset_s;
+    bool retreat;
+  };
+  for (const Case c : {Case{20.0, false}, Case{28.0, true}}) {
+    CAPTURE(c.offset_s);
+    sim::SimConfig config = SimRig::quiet_config();
+    config.scenario_time_offset_s = c.offset_s;
+    Run run("thesis-steel-frame.yaml", config, "ctl-escape");
+    while (run.done_us < 0 && run.rig.t_us < SimRig::at_sim_s(800.0)) run.rig.run(10'000'000);
+    const firmware::ControllerStats& st = run.controller.stats();
+    INFO(run.log());
+    CAPTURE(st.safety_stops, st.replans, st.escapes, st.retreats, st.retreats_refused, st.retreat_cycles, run.min_true_clearance_m,
+            run.min_true_dynamic_m, run.dynamic_at_escape_m, run.dynamic_after_escape_m);
+    CHECK(st.goals_reached == 1);
+    CHECK(st.safety_stops == 1);
+    CHECK(st.escapes >= 1);
+    CHECK(st.retreat_cycles > 0);
+    CHECK((st.retreats > 0) == c.retreat);
+    CHECK(st.trajectory_errors == 0);
+    // No contact, and from where the escape began the crane never came nearer to crane 2 than the
+    // floor lets it (0.1 m) and a stop check's sample step.
+    CHECK(run.min_true_clearance_m > 0.0);
+    CHECK(run.dynamic_after_escape_m >= run.dynamic_at_escape_m - 0.15);
+  }
+}
+
+TEST_CASE("the controller does not move a crane that crane 2 has run into", "[firmware][sim][e2e]") {
+  // 24 s ahead, crane 2 swings into our crane after it has stopped: in contact, no retreat is
+  // searched; the supervisor holds and retries, and the machine stays where it is.
+  sim::SimConfig config = SimRig::quiet_config();
+  config.scenario_time_offset_s = 24.0;
+  Run run("thesis-steel-frame.yaml", config, "ctl-contact");
+  run.rig.run(SimRig::at_sim_s(70.0) - run.rig.t_us);
+  const firmware::ControllerStats& st = run.controller.stats();
+  INFO(run.log());
+  CAPTURE(st.safety_stops, st.replans, st.escapes, st.retreats, st.retreats_refused);
+  REQUIRE(st.safety_stops == 1);
+  CHECK(st.retreats == 0);
+  CHECK(st.retreats_refused >= 1);
+  CHECK(run.controller.supervisor().retry_pending());
+  const auto stopped = run.rig.sim->truth().position;
+  run.rig.run(20'000'000);
+  CHECK(st.goals_reached == 0);
+  for (int j = 0; j < run.controller.num_joints(); ++j) {
+    CAPTURE(j);
+    CHECK(std::abs(run.rig.sim->truth().position[static_cast<std::size_t>(j)] - stopped[static_cast<std::size_t>(j)]) < 1e-3);
+  }
 }

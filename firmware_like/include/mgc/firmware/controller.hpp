@@ -18,6 +18,7 @@
 #include "mgc/hal/hal.hpp"
 #include "mgc/planning/collision_world.hpp"
 #include "mgc/planning/planners/replanner.hpp"
+#include "mgc/planning/retreat.hpp"
 #include "mgc/planning/scenario.hpp"
 
 //! The controller's cycle (docs/controller.md): one step() per period turns the Hal's snapshot and
@@ -63,6 +64,19 @@ struct ControllerConfig {
   double envelope_planning_margin_m = 1.25;
   //! The same for an escape plan, above half the escape world's dilation. [m]
   double envelope_escape_margin_m = 0.5;
+  //! Iteration cap of an escape plan and of its repairs (at least the scenario's caps): at
+  //! plan_iterations_per_cycle, 20000 iterations are 20 s at 100 Hz, with the machine at rest. [-]
+  int escape_max_iterations = 20000;
+  //! Where not even the escape planner accepts the stopped machine as a start, one joint moves it
+  //! out first (planning::RetreatSearch, docs/controller.md "Retreat"), measured against the stop
+  //! check's world and ending valid in the escape world.
+  planning::RetreatSettings retreat{};
+  //! Configurations the retreat search measures per cycle (two clearance queries each). [-]
+  int retreat_configs_per_cycle = 2;
+  //! While an escape (or a retreat and escape) is followed and every obstacle is settled, the stop
+  //! check stops only a motion that comes this much nearer than where the machine started it, or
+  //! nearer than the stop margin if it started outside (guidance::StopCheck::set_retreat_floor). [m]
+  double retreat_floor_tolerance_m = 0.1;
   guidance::StopCheckConfig stop_check{};
   //! num_joints and uwb_required are set from the scenario.
   guidance::SupervisorConfig supervisor{};
@@ -93,6 +107,9 @@ struct ControllerStats {
   int plans = 0;             //!< first plans started (goal requests accepted)
   int replans = 0;           //!< repairs started after a safety stop
   int escapes = 0;           //!< repairs planned anew because an obstacle stopped within the planning margin
+  int retreats = 0;          //!< retreats found where not even the escape planner accepted the start
+  int retreats_refused = 0;  //!< retreat searches that found no way out, or started in contact
+  std::uint64_t retreat_cycles = 0;  //!< moving cycles the retreat floor let through the stop margin
   int safety_stops = 0;      //!< EXECUTING -> STOPPING for the stop check, the envelope or the load chart
   int goals_reached = 0;
   int commands_rejected = 0; //!< operator commands the supervisor refused
@@ -146,6 +163,10 @@ class Controller {
   //! Every tracked obstacle's speed is measured and near its floor.
   [[nodiscard]] bool obstacles_settled() const noexcept;
   void load_path() noexcept;
+  //! Waypoint i of the followed path: the planner's, behind the retreat's start when there is one.
+  [[nodiscard]] const planning::JointVector& waypoint(std::size_t i) const noexcept {
+    return retreat_prefix_ ? (i == 0 ? retreat_from_ : active_->path()[i - 1]) : active_->path()[i];
+  }
   //! The follower's velocity command into v_target_.
   void follow(double dt_s, double speed_scale) noexcept;
   void fill_snapshot(const hal::SensorSnapshot& s, const guidance::SupervisorOutput& out) noexcept;
@@ -164,8 +185,16 @@ class Controller {
   //! keeps escape_margin_m, the obstacles at their own size.
   std::unique_ptr<planning::CollisionWorld> escape_world_;
   planning::PlanningProblem escape_problem_{};
+  planning::ReplanSettings escape_settings_{};
   std::unique_ptr<planning::Replanner> escape_;
   planning::Replanner* active_ = nullptr;  //!< whose path is followed
+  std::unique_ptr<planning::RetreatSearch> retreat_;
+  bool retreat_searching_ = false;
+  //! The followed path is retreat_from_, then the escape planner's path from the retreat's end.
+  bool retreat_prefix_ = false;
+  planning::JointVector retreat_from_;
+  //! Least clearance, not lessened by any reach, where the machine started the escape it follows. [m]
+  double escape_start_m_ = 0.0;
   bool replan_pending_ = false;            //!< a repair waits for the obstacles to settle
   planning::PlannerStatus planner_status_ = planning::PlannerStatus::NotReset;
   std::vector<ObstacleTracker> trackers_;
