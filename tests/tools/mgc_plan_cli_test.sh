@@ -52,6 +52,13 @@ grep -q '"seed":3,' "$tmp/plan.json" || fail "plan JSON seed is not the one give
 grep -q "^<svg " "$tmp/plan.svg" || fail "--svg did not write an SVG document"
 [ "$(grep -c "<polyline" "$tmp/plan.svg")" -ge 3 ] || fail "--svg drew no path or tree"
 grep -q "bucket-tip path" "$tmp/plan.svg" || fail "--svg legend does not name the excavator's tool point"
+# The working envelope is drawn when the scenario has one (tests/tools/svg_view_test.cpp checks where).
+"$plan" --scenario "$root/scenarios/thesis-steel-frame-road.yaml" --planner limcon --svg "$tmp/road.svg" >"$tmp/out" 2>"$tmp/err" \
+  || fail "road with --svg: $(cat "$tmp/err")"
+[ "$(grep -c 'class="envelope wall-0"' "$tmp/road.svg")" -eq 2 ] || fail "--svg did not draw the road's wall in both views"
+grep -q "working envelope" "$tmp/road.svg" || fail "--svg legend does not name the working envelope"
+"$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner limcon --svg "$tmp/plain.svg" >/dev/null 2>&1 || fail "limcon with --svg failed"
+grep -q "envelope" "$tmp/plain.svg" && fail "--svg drew an envelope for a scenario without one"
 "$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner anytime --json "$tmp/anytime.json" >"$tmp/out" 2>"$tmp/err" \
   || fail "anytime: $(cat "$tmp/err")"
 grep -q '"anytime_history":\[{"time_ms":' "$tmp/anytime.json" || fail "anytime JSON has no improvement history"
