@@ -363,7 +363,7 @@ SimulationSpec read_simulation(const Value& value) {
   return sim;
 }
 
-// envelope: working-envelope limits on named key points (docs/scenarios.md). The names are
+// envelope: working-envelope limits on named key points (docs/scenario-format.md). The names are
 // resolved against the machine model by its user (guidance::envelope_config), which names this
 // section's line when one is unknown.
 EnvelopeSpec read_envelope(const Value& value) {
