@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
   }
   if (suite_name == "bus") return mgc::bench::run_bus_suite({scenarios_dir, out_dir, bus_samples});
   if (suite_name == "trajectory") return mgc::bench::run_trajectory_suite({out_dir, trajectory_cases, first_seed});
-  if (suite_name == "safety") return mgc::bench::run_safety_suite({scenarios_dir, out_dir});
+  if (suite_name == "safety") return mgc::bench::run_safety_suite({scenarios_dir, out_dir, 2000, first_seed});
   if (suite_name == "loop") {
     loop.scenarios_dir = scenarios_dir;
     loop.out_dir = out_dir;
