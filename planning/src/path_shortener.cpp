@@ -1,0 +1,205 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/planning/path_shortener.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace mgc::planning {
+
+PathShortener::PathShortener(int dof, std::size_t capacity, double chunk_m)
+    : chunk_m_(std::max(chunk_m, 1e-3)), capacity_(std::max<std::size_t>(capacity, 2)) {
+  const JointVector zero = JointVector::Zero(dof);
+  step_ = zero;
+  nodes_.assign(capacity_, zero);
+  source_.assign(capacity_, -1);
+  stairs_.assign(static_cast<std::size_t>(dof), zero);
+  at_ = zero;
+  chunk_to_ = zero;
+  end_ = zero;
+}
+
+double PathShortener::delta(int j, const JointVector& from, const JointVector& to) const noexcept {
+  const double d = to[j] - from[j];
+  return world_->model().joints()[static_cast<std::size_t>(j)].continuous ? std::remainder(d, 2.0 * std::numbers::pi) : d;
+}
+
+PathShortener::Status PathShortener::begin(CollisionWorld& world, const JointVector* prefix, const std::vector<JointVector>& path,
+                                           const JointVector& step, std::size_t first, bool shorten) noexcept {
+  world_ = &world;
+  step_ = step;
+  size_ = 0;
+  chunks_ = 0;
+  trying_ = false;
+  truncated_ = (prefix ? 1 : 0) + path.size() > capacity_;
+  if (truncated_) return status_ = Status::Done;
+  if (prefix) {
+    nodes_[size_] = *prefix;
+    source_[size_++] = -1;
+  }
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    nodes_[size_] = path[i];
+    source_[size_++] = static_cast<int>(i);
+  }
+  first_ = first;
+  i_ = first;
+  k_ = size_ > 0 ? size_ - 1 : 0;
+  phase_ = Phase::Shortcut;
+  return status_ = shorten && size_ >= 2 ? Status::Running : Status::Done;
+}
+
+void PathShortener::plan_stairs(bool largest_first) noexcept {
+  const int n = world_->model().dof();
+  const JointVector& from = nodes_[i_];
+  const JointVector& to = nodes_[k_];
+  order_count_ = 0;
+  if (phase_ == Phase::Shortcut) {
+    // The order in which the joints first move along the stretch.
+    for (std::size_t e = i_; e < k_; ++e) {
+      for (int j = 0; j < n; ++j) {
+        if (delta(j, nodes_[e], nodes_[e + 1]) == 0.0 || delta(j, from, to) == 0.0) continue;
+        if (std::find(order_.begin(), order_.begin() + order_count_, j) == order_.begin() + order_count_) order_[static_cast<std::size_t>(order_count_++)] = j;
+      }
+    }
+  } else {
+    for (int j = 0; j < n; ++j) {
+      if (delta(j, from, to) != 0.0) order_[static_cast<std::size_t>(order_count_++)] = j;
+    }
+    if (largest_first) {
+      // Insertion sort, stable and without the buffer std::stable_sort may allocate.
+      for (int a = 1; a < order_count_; ++a) {
+        const int j = order_[static_cast<std::size_t>(a)];
+        int b = a;
+        for (; b > 0 && std::abs(delta(order_[static_cast<std::size_t>(b - 1)], from, to)) < std::abs(delta(j, from, to)); --b) {
+          order_[static_cast<std::size_t>(b)] = order_[static_cast<std::size_t>(b - 1)];
+        }
+        order_[static_cast<std::size_t>(b)] = j;
+      }
+    }
+  }
+  for (int s = 0; s < order_count_; ++s) {
+    const auto k = static_cast<std::size_t>(s);
+    stairs_[k] = s == 0 ? from : stairs_[k - 1];
+    const int j = order_[k];
+    stairs_[k][j] = to[j];
+  }
+}
+
+bool PathShortener::next_candidate() noexcept {
+  for (;;) {
+    if (phase_ == Phase::Shortcut) {
+      if (i_ + 2 >= size_) {
+        phase_ = Phase::Stairs;
+        i_ = first_;
+        tried_largest_ = false;
+        continue;
+      }
+      if (k_ < i_ + 2) {
+        ++i_;
+        k_ = size_ - 1;
+        continue;
+      }
+      plan_stairs(false);
+      if (order_count_ == 0 || static_cast<std::size_t>(order_count_) < k_ - i_) return true;
+      --k_;
+    } else {
+      if (i_ + 1 >= size_) return false;
+      k_ = i_ + 1;
+      const bool largest_first = !tried_largest_;
+      plan_stairs(largest_first);
+      if (order_count_ >= 2 && size_ + static_cast<std::size_t>(order_count_) - 1 <= capacity_) return true;
+      ++i_;
+      tried_largest_ = false;
+    }
+  }
+}
+
+void PathShortener::apply() noexcept {
+  const auto m = static_cast<std::size_t>(order_count_);  // nodes after i_ in the replacement
+  const std::size_t replaced = k_ - i_;
+  end_ = nodes_[k_];
+  const int end_source = source_[k_];
+  // A loop back to node i_ itself (m = 0) drops the stretch and node k_ with it.
+  const std::size_t kept_end = m == 0 ? 0 : 1;
+  const std::size_t new_k = i_ + m;
+  if (m < replaced) {
+    for (std::size_t t = k_ + 1; t < size_; ++t) {
+      nodes_[t - (replaced - m)] = nodes_[t];
+      source_[t - (replaced - m)] = source_[t];
+    }
+  } else if (m > replaced) {
+    for (std::size_t t = size_; t-- > k_ + 1;) {
+      nodes_[t + (m - replaced)] = nodes_[t];
+      source_[t + (m - replaced)] = source_[t];
+    }
+  }
+  size_ = size_ - replaced + m;
+  for (std::size_t s = 0; s + 1 < m; ++s) {
+    nodes_[i_ + 1 + s] = stairs_[s];
+    source_[i_ + 1 + s] = -1;
+  }
+  if (kept_end) {
+    nodes_[new_k] = end_;
+    source_[new_k] = end_source;
+  }
+}
+
+PathShortener::Status PathShortener::step(int budget) noexcept {
+  while (status_ == Status::Running && budget > 0) {
+    if (!trying_) {
+      if (!next_candidate()) return status_ = Status::Done;
+      if (order_count_ == 0) {
+        apply();  // the stretch returns to where it began
+        k_ = size_ - 1;
+        continue;
+      }
+      trying_ = true;
+      stair_ = 0;
+      at_ = nodes_[i_];
+    }
+    // One chunk of the stair being validated.
+    const int j = order_[static_cast<std::size_t>(stair_)];
+    const JointVector& stair_end = stairs_[static_cast<std::size_t>(stair_)];
+    const double remaining = delta(j, at_, stair_end);
+    const double bound = world_->model().displacement_bound(j);
+    const double chunk = bound > 0.0 ? chunk_m_ / bound : std::abs(remaining);
+    const bool last_chunk = std::abs(remaining) <= chunk;
+    chunk_to_ = at_;
+    if (last_chunk) {
+      chunk_to_[j] = stair_end[j];
+    } else {
+      chunk_to_[j] = at_[j] + std::copysign(chunk, remaining);
+      if (world_->model().joints()[static_cast<std::size_t>(j)].continuous) chunk_to_[j] = std::remainder(chunk_to_[j], 2.0 * std::numbers::pi);
+    }
+    --budget;
+    ++chunks_;
+    if (!world_->validate_edge(at_, chunk_to_, step_).valid()) {
+      trying_ = false;
+      if (phase_ == Phase::Shortcut) {
+        --k_;
+      } else if (!tried_largest_) {
+        tried_largest_ = true;
+      } else {
+        tried_largest_ = false;
+        ++i_;
+      }
+      continue;
+    }
+    at_ = chunk_to_;
+    if (!last_chunk) continue;
+    if (++stair_ < order_count_) continue;
+    // Every stair is valid.
+    trying_ = false;
+    apply();
+    if (phase_ == Phase::Shortcut) {
+      ++i_;
+      k_ = size_ - 1;
+    } else {
+      i_ += static_cast<std::size_t>(order_count_);
+      tried_largest_ = false;
+    }
+  }
+  return status_;
+}
+
+}  // namespace mgc::planning
