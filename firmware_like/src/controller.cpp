@@ -128,6 +128,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       escape_problem_(planning::planning_problem(scenario_, *model_, *escape_world_)),
       escape_(planning::make_replanner(config.replanner)),
       retreat_(std::make_unique<planning::RetreatSearch>(*safety_world_, *escape_world_, config.retreat)),
+      path_(model_->dof(), config.max_path_waypoints),
       envelope_(make_envelope(scenario_, *model_)),
       stop_check_(*safety_world_, envelope_.get(), config.stop_check),
       supervisor_(supervisor_config(config.supervisor, scenario_)),
@@ -136,6 +137,8 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
   if (config.plan_iterations_per_cycle < 1) throw std::invalid_argument("controller: plan_iterations_per_cycle must be >= 1");
   if (config.retreat_configs_per_cycle < 1) throw std::invalid_argument("controller: retreat_configs_per_cycle must be >= 1");
+  if (config.shorten_chunks_per_cycle < 1) throw std::invalid_argument("controller: shorten_chunks_per_cycle must be >= 1");
+  if (config.max_path_waypoints < 2) throw std::invalid_argument("controller: max_path_waypoints must be >= 2");
   if (!(config.retreat_floor_tolerance_m >= 0.0)) throw std::invalid_argument("controller: retreat_floor_tolerance_m must be >= 0");
   if (!(config.follow_speed_fraction > 0.0 && config.follow_speed_fraction <= 1.0)) {
     throw std::invalid_argument("controller: follow_speed_fraction must be in (0, 1]");
@@ -337,7 +340,7 @@ void Controller::run_safety() noexcept {
 
 void Controller::load_path() noexcept {
   following_ = true;
-  path_size_ = active_->path().size() + (retreat_prefix_ ? 1 : 0);
+  path_size_ = path_.size();
   target_ = 1;
   origin_ = q_unwrapped_;
   target_unwrapped_ = path_size_ > 1 ? origin_ + model_->difference(waypoint(0), waypoint(1)) : origin_;
@@ -355,6 +358,9 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
     replan_pending_ = false;
     retreat_searching_ = false;
     retreat_prefix_ = false;
+    path_taken_ = false;
+    shortening_ = false;
+    repairing_ = false;
     active_ = replanner_.get();
     problem_.start = q_wrapped_;
     problem_.goal = goal_;
@@ -364,19 +370,29 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
     following_ = false;
     replan_pending_ = true;
     retreat_searching_ = false;
+    shortening_ = false;
+    repairing_ = true;
     planner_status_ = PlannerStatus::Running;
   }
   if (out.state != guidance::SupervisorState::Replanning) {
     replan_pending_ = false;
     retreat_searching_ = false;
   }
+  if (out.state != guidance::SupervisorState::Planning && out.state != guidance::SupervisorState::Replanning) shortening_ = false;
   if (replan_pending_ && obstacles_settled()) {
-    // The repair starts where the machine stopped, on its way to waypoint target_ (the planner's
-    // target_ - 1 behind a retreat).
+    // The repair starts where the machine stopped, on its way to waypoint target_: the planner is
+    // told the first of its own nodes at or after it (a retreat's start and the shortener's
+    // corners are not its nodes).
     replan_pending_ = false;
-    const std::size_t planner_target = retreat_prefix_ ? (target_ > 0 ? target_ - 1 : 0) : target_;
     const std::size_t planner_size = active_->path().size();
+    std::size_t planner_target = planner_size > 0 ? planner_size - 1 : 0;
+    for (std::size_t i = target_; i < path_size_; ++i) {
+      if (path_.source(i) < 0) continue;
+      planner_target = static_cast<std::size_t>(path_.source(i));
+      break;
+    }
     retreat_prefix_ = false;
+    path_taken_ = false;
     const int next = static_cast<int>(std::min(planner_target, planner_size > 0 ? planner_size - 1 : 0));
     planner_status_ = active_->replan(q_wrapped_, std::max(next, 1));
     ++stats_.replans;
@@ -410,16 +426,47 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
         retreat_prefix_ = true;
         ++stats_.retreats;
         escape_problem_.start = retreat_->target();
+        path_taken_ = false;
         planner_status_ = active_->reset(escape_problem_, escape_settings_);
       } else if (rs != planning::RetreatSearch::Status::Running) {
         retreat_searching_ = false;
         ++stats_.retreats_refused;
         planner_status_ = PlannerStatus::InvalidStart;
       }
+    } else if (shortening_) {
+      if (path_.step(config_.shorten_chunks_per_cycle) == planning::PathShortener::Status::Done) {
+        shortening_ = false;
+        planner_status_ = PlannerStatus::Solved;
+        const int removed = static_cast<int>(active_->path().size() + (retreat_prefix_ ? 1 : 0)) - static_cast<int>(path_.size());
+        if (removed != 0) ++stats_.paths_shortened;
+        stats_.waypoints_removed += removed;
+      }
     } else {
       planner_status_ = active_->step(config_.plan_iterations_per_cycle);
     }
     ++stats_.planner_cycles;
+  }
+  if (planner_status_ == PlannerStatus::Solved && !path_taken_) take_path();
+}
+
+void Controller::take_path() noexcept {
+  using planning::PlannerStatus;
+  path_taken_ = true;
+  const bool escape = active_ == escape_.get();
+  // The first plan is followed as planned; a repair or an escape is shortened in the world it was
+  // planned in, with the obstacles where it saw them.
+  const bool shorten = escape || repairing_;
+  planning::CollisionWorld& world = escape ? *escape_world_ : *plan_world_;
+  const planning::JointVector& step = escape ? escape_problem_.step : problem_.step;
+  const std::size_t first = retreat_prefix_ ? 1 : 0;
+  const planning::PathShortener::Status st =
+      path_.begin(world, retreat_prefix_ ? &retreat_from_ : nullptr, active_->path(), step, first, shorten);
+  if (path_.truncated()) {
+    planner_status_ = PlannerStatus::PoolExhausted;
+  } else if (st == planning::PathShortener::Status::Running) {
+    // Reported as still planning until the shortened path is ready.
+    shortening_ = true;
+    planner_status_ = PlannerStatus::Running;
   }
 }
 

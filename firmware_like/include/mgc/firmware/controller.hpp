@@ -18,6 +18,7 @@
 #include "mgc/hal/hal.hpp"
 #include "mgc/planning/collision_world.hpp"
 #include "mgc/planning/planners/replanner.hpp"
+#include "mgc/planning/path_shortener.hpp"
 #include "mgc/planning/retreat.hpp"
 #include "mgc/planning/scenario.hpp"
 
@@ -73,6 +74,12 @@ struct ControllerConfig {
   planning::RetreatSettings retreat{};
   //! Configurations the retreat search measures per cycle (two clearance queries each). [-]
   int retreat_configs_per_cycle = 2;
+  //! Repaired and escape paths are shortened before they are followed (planning::PathShortener):
+  //! chunks of edge validated per cycle, each at most 2 m of body travel. The first plan is
+  //! followed as planned. [-]
+  int shorten_chunks_per_cycle = 3;
+  //! Most waypoints a followed path may have (retreat and shortening corners included). [-]
+  std::size_t max_path_waypoints = 1024;
   //! While an escape (or a retreat and escape) is followed and every obstacle is settled, the stop
   //! check stops only a motion that comes this much nearer than where the machine started it, or
   //! nearer than the stop margin if it started outside (guidance::StopCheck::set_retreat_floor). [m]
@@ -109,6 +116,8 @@ struct ControllerStats {
   int escapes = 0;           //!< repairs planned anew because an obstacle stopped within the planning margin
   int retreats = 0;          //!< retreats found where not even the escape planner accepted the start
   int retreats_refused = 0;  //!< retreat searches that found no way out, or started in contact
+  int paths_shortened = 0;   //!< repaired or escape paths the shortener took waypoints or corners from
+  int waypoints_removed = 0; //!< waypoints the shortener removed over all paths (corners it added subtract)
   std::uint64_t retreat_cycles = 0;  //!< moving cycles the retreat floor let through the stop margin
   int safety_stops = 0;      //!< EXECUTING -> STOPPING for the stop check, the envelope or the load chart
   int goals_reached = 0;
@@ -163,10 +172,11 @@ class Controller {
   //! Every tracked obstacle's speed is measured and near its floor.
   [[nodiscard]] bool obstacles_settled() const noexcept;
   void load_path() noexcept;
-  //! Waypoint i of the followed path: the planner's, behind the retreat's start when there is one.
-  [[nodiscard]] const planning::JointVector& waypoint(std::size_t i) const noexcept {
-    return retreat_prefix_ ? (i == 0 ? retreat_from_ : active_->path()[i - 1]) : active_->path()[i];
-  }
+  //! Takes the planner's solution into path_: behind the retreat's start when there is one, and
+  //! shortened unless it is the first plan.
+  void take_path() noexcept;
+  //! Waypoint i of the followed path.
+  [[nodiscard]] const planning::JointVector& waypoint(std::size_t i) const noexcept { return path_[i]; }
   //! The follower's velocity command into v_target_.
   void follow(double dt_s, double speed_scale) noexcept;
   void fill_snapshot(const hal::SensorSnapshot& s, const guidance::SupervisorOutput& out) noexcept;
@@ -190,8 +200,13 @@ class Controller {
   planning::Replanner* active_ = nullptr;  //!< whose path is followed
   std::unique_ptr<planning::RetreatSearch> retreat_;
   bool retreat_searching_ = false;
-  //! The followed path is retreat_from_, then the escape planner's path from the retreat's end.
+  //! The planner's next solution follows retreat_from_: the escape from the retreat's end.
   bool retreat_prefix_ = false;
+  //! The followed path: the planner's solution, possibly behind a retreat and shortened.
+  planning::PathShortener path_;
+  bool path_taken_ = false;  //!< the planner's current solution is in path_ (or being shortened)
+  bool shortening_ = false;
+  bool repairing_ = false;  //!< the planner's query is a repair or an escape, not a goal's first plan
   planning::JointVector retreat_from_;
   //! Least clearance, not lessened by any reach, where the machine started the escape it follows. [m]
   double escape_start_m_ = 0.0;
