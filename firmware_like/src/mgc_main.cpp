@@ -317,10 +317,11 @@ int main(int argc, char** argv) {
     const bool completed = st.goals_reached > 0;
     std::printf("mgc: summary: lift %s", completed ? "completed" : "not completed");
     if (completed && goal_request_us >= 0) std::printf(" in %.1f s", static_cast<double>(done_us - goal_request_us) * 1e-6);
-    std::printf(", state %s (%s), %d re-plans (%d escapes), %d safety stops, least clearance while moving %.2f m, %d alerts, "
-                "%d commands refused\n",
+    std::printf(", state %s (%s), %d re-plans (%d escapes, %d retreats), %d safety stops, least clearance while moving %.2f m, "
+                "%d alerts, %d commands refused\n",
                 guidance::to_string(controller.supervisor().state()), guidance::to_string(controller.supervisor().reason()),
-                st.replans, st.escapes, st.safety_stops, st.min_clearance_m, alerts_raised, st.commands_rejected);
+                st.replans, st.escapes, st.retreats, st.safety_stops, st.min_clearance_m, alerts_raised, st.commands_rejected);
+    if (st.paths_shortened > 0) std::printf("mgc: paths: %d repaired or escape paths shortened by %d waypoints\n", st.paths_shortened, st.waypoints_removed);
     if (controller.has_envelope()) {
       std::printf("mgc: envelope: least distance of a monitored point to a limit while moving %.2f m, motions slowed toward a "
                   "limit in %" PRIu64 " cycles\n",
