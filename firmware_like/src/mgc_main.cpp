@@ -63,6 +63,8 @@ int main(int argc, char** argv) {
   bool lock_memory = false;
   std::string trace_csv;
   std::string replanner = "drrt";
+  //! mgc-sim's valves have a 3 % deadband (docs/simulator.md); a real machine's is its valve calibration. [%]
+  double valve_deadband_pct = 3.0;
   bool quiet = false;
   int watchdog_misses = 10;
   app.add_option("--scenario", scenario_file, "scenario file (YAML, docs/scenario-format.md)")->required();
@@ -80,6 +82,10 @@ int main(int argc, char** argv) {
   app.add_flag("--mlock", lock_memory, "lock the process's memory (mlockall) when permitted");
   app.add_option("--trace-csv", trace_csv, "write the controller's view at 10 Hz here (CSV; mgc-plan --trace draws it)");
   app.add_option("--replanner", replanner, "re-planner: drrt, drrt-rrt, drrt-con-con-mod")->capture_default_str();
+  app.add_option("--valve-deadband-pct", valve_deadband_pct,
+                 "the valves' deadband as calibrated, % of spool travel: commands are mapped past it (docs/protocol.md)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 50.0));
   app.add_flag("--quiet", quiet, "print only errors and the summary");
   app.add_option("--watchdog-misses", watchdog_misses, "deadline misses in a row that trip the watchdog (a stop and FAULT)")
       ->capture_default_str()
@@ -136,6 +142,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> joint_names;
     for (const auto& j : scenario.machine.joints) joint_names.push_back(j.name);
     hal::Hal hal(*opened.bus, hal::bus_plan_for(planning::to_string(scenario.machine.kind), joint_names), vmax);
+    hal.set_valve_deadband(valve_deadband_pct / 100.0);
 
     firmware::SnapshotQueue snapshots;
     firmware::CommandQueue commands;

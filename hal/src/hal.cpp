@@ -253,6 +253,11 @@ void Hal::update_health(std::int64_t now_us, std::int64_t data_age_ref_us) noexc
   }
 }
 
+void Hal::set_valve_deadband(double fraction) {
+  if (!(fraction >= 0.0 && fraction <= 0.5)) throw std::invalid_argument("valve deadband must be in [0, 0.5] of spool travel");
+  valve_deadband_ = fraction;
+}
+
 WriteResult Hal::write(std::span<const double> velocity, std::int64_t now_us) noexcept {
   WriteResult result;
   std::array<std::int16_t, kMaxBusJoints> permyriad{};
@@ -267,6 +272,7 @@ WriteResult Hal::write(std::span<const double> velocity, std::int64_t now_us) no
       result.clamped_mask = static_cast<std::uint8_t>(result.clamped_mask | (1U << j));
       fraction = std::clamp(fraction, -1.0, 1.0);
     }
+    if (fraction != 0.0) fraction = std::copysign(valve_deadband_ + (1.0 - valve_deadband_) * std::abs(fraction), fraction);
     permyriad[j] = pdo::fraction_to_permyriad(fraction).value;
   }
   if (velocity.size() != plan_.num_joints || result.refused_mask != 0) result.status = Status::OutOfRange;

@@ -3,6 +3,8 @@
 // frames, tag sequence gaps, command scaling, SYNC and heartbeat production.
 #include <catch2/catch.hpp>
 
+#include <stdexcept>
+
 #include <array>
 #include <cmath>
 #include <limits>
@@ -248,6 +250,23 @@ TEST_CASE("Hal: write scales to permyriad, clamps, refuses NaN as zero, sends th
     for (const CanFrame& f : b.drain_device()) heartbeats += f.can_id == canopen::heartbeat_cob_id(kControllerNodeId);
   }
   CHECK(heartbeats == 20);  // 1.0 s at 50 ms
+}
+
+TEST_CASE("Hal: with a valve deadband a command is mapped past it, zero stays zero", "[hal][facade]") {
+  Bench b;
+  CHECK_THROWS_AS(b.hal->set_valve_deadband(-0.01), std::invalid_argument);
+  CHECK_THROWS_AS(b.hal->set_valve_deadband(0.6), std::invalid_argument);
+  b.hal->set_valve_deadband(0.03);
+  (void)b.drain_device();
+  // Half speed, a full-speed command, a hundredth of full speed, and zero.
+  const std::array<double, 4> v{0.05, -0.02, 0.001, 0.0};
+  (void)b.hal->write(v, 1'000'000);
+  const auto frames = b.drain_device();
+  REQUIRE_FALSE(frames.empty());
+  const auto cmd = pdo::decode_valve_command(frames[0]);
+  REQUIRE(cmd.ok());
+  // 3 % + 97 % of the fraction: 0.5 -> 0.515, -1 -> -1, 0.01 -> 0.0397; zero closes the valve.
+  CHECK(cmd.value.velocity_permyriad == std::array<std::int16_t, 4>{5150, -10000, 397, 0});
 }
 
 TEST_CASE("Hal: read sends SYNC with a counter that runs 1..240", "[hal][facade]") {

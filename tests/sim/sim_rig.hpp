@@ -50,6 +50,8 @@ class SimRig {
     sim = std::make_unique<sim::Simulator>(scenario, *machine_bus, std::move(config));
     const auto vmax = max_velocities(scenario);
     hal = std::make_unique<hal::Hal>(*controller_bus, sim->plan(), vmax);
+    // The valves as calibrated: the deadband the simulated ones have.
+    hal->set_valve_deadband(sim->config().valve_deadband);
     command.assign(vmax.size(), 0.0);
   }
 

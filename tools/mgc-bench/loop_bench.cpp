@@ -103,6 +103,7 @@ class Rig {
     std::vector<double> vmax;
     for (const auto& j : scenario.machine.joints) vmax.push_back(j.max_velocity);
     hal = std::make_unique<hal::Hal>(*controller_bus, sim->plan(), vmax);
+    hal->set_valve_deadband(sim->config().valve_deadband);
     controller = std::make_unique<firmware::Controller>(scenario, firmware::ControllerConfig{});
   }
 

@@ -139,6 +139,14 @@ class Hal {
   //! that a late cycle, which delayed the SYNC itself, does not make the devices' answers stale.
   const SensorSnapshot& read(std::int64_t now_us) noexcept;
 
+  //! The valves' deadband, a fraction of spool travel (docs/protocol.md §Valve): a proportional
+  //! valve passes no flow below it and flow linear in the spool beyond. write() then maps a
+  //! velocity v to the spool sign(v) (deadband + (1 - deadband) |v| / max) and zero to zero, so
+  //! that a small correction moves the joint instead of leaving it short of its target. 0 (the
+  //! default): v / max. Start-up only; throws std::invalid_argument outside [0, 0.5].
+  void set_valve_deadband(double fraction);
+  [[nodiscard]] double valve_deadband() const noexcept { return valve_deadband_; }
+
   //! Sends the valve command frames for every joint (velocities in SI, clamped to the max
   //! velocity), and the controller heartbeat when it is due.
   WriteResult write(std::span<const double> velocity, std::int64_t now_us) noexcept;
@@ -169,6 +177,7 @@ class Hal {
   CanBus& bus_;
   BusPlan plan_;
   std::array<double, kMaxBusJoints> max_velocity_{};
+  double valve_deadband_ = 0.0;
   SensorSnapshot snap_{};
   std::array<TimedFrame, kHalReceiveBatch> rx_{};
   std::array<std::int8_t, 256> tag_slot_{};  //!< tag id → index in snap_.tags, -1 = unseen

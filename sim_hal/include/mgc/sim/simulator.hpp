@@ -92,6 +92,7 @@ class Simulator {
   [[nodiscard]] const TrueState& truth() const noexcept { return truth_; }
   [[nodiscard]] const SimCounters& counters() const noexcept { return counters_; }
   [[nodiscard]] const hal::BusPlan& plan() const noexcept { return plan_; }
+  [[nodiscard]] const SimConfig& config() const noexcept { return config_; }
   [[nodiscard]] const std::vector<SimTag>& tags() const noexcept { return tags_; }
   //! Pose of dynamic obstacle i at the current simulation time.
   [[nodiscard]] Eigen::Isometry3d obstacle_pose(std::size_t i) const noexcept;
