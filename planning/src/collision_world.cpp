@@ -447,7 +447,7 @@ bool CollisionWorld::Impl::pair_hit(std::size_t p, const SelfPair& pair) noexcep
 }
 
 CollisionWorld::CollisionWorld(const MachineModel& model, double dilation_m)
-    : model_(model), dilation_m_(dilation_m), impl_(std::make_unique<Impl>()) {
+    : model_(model), dilation_m_(dilation_m), fixed_dilation_m_(dilation_m), impl_(std::make_unique<Impl>()) {
   if (!(dilation_m >= 0.0) || !std::isfinite(dilation_m)) throw std::invalid_argument("dilation must be >= 0");
   impl_->bodies.reserve(model.bodies().size());
   for (const BodySpec& spec : model.bodies()) {
@@ -572,8 +572,8 @@ const Eigen::Isometry3d& CollisionWorld::dynamic_pose(int index) const noexcept 
 
 void CollisionWorld::pose_machine(const JointVector& q) noexcept {
   model_.forward_kinematics(q, impl_->kinematics);
-  const double m = dilation_m_;
   for (std::size_t i = 0; i < impl_->bodies.size(); ++i) {
+    const double m = impl_->body_moves.empty() || impl_->body_moves[i] != 0 ? dilation_m_ : fixed_dilation_m_;
     auto& body = impl_->bodies[i];
     const BodyState& state = impl_->kinematics.bodies[i];
     // Shapes are resized in place (FCL primitives are plain data), so a telescoping boom or a
@@ -725,6 +725,11 @@ void CollisionWorld::forget_results() noexcept { impl_->forget(); }
 bool CollisionWorld::reuses_results() const noexcept { return impl_->reuse; }
 
 std::uint64_t CollisionWorld::body_checks() const noexcept { return impl_->body_checks; }
+
+void CollisionWorld::set_fixed_body_dilation(double dilation_m) {
+  if (!(dilation_m >= 0.0) || !std::isfinite(dilation_m)) throw std::invalid_argument("fixed body dilation must be >= 0");
+  fixed_dilation_m_ = dilation_m;
+}
 
 bool CollisionWorld::body_moves(int body) const noexcept { return impl_->body_moves[static_cast<std::size_t>(body)] != 0; }
 

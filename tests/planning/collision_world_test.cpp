@@ -261,3 +261,25 @@ TEST_CASE("clearance splits into the moving and the fixed bodies, only the carri
     CHECK(compared > 100);
   }
 }
+
+TEST_CASE("collision world: the fixed bodies keep their own dilation when it is set", "[unit]") {
+  // The thesis site: the parked carrier is the only fixed body, 1.15 m from the frame.
+  Scenario s = io::load_scenario(mgc::test::source_path("scenarios/thesis-steel-frame.yaml"));
+  const auto model = build_model(s);
+  const auto plain = build_world(s, *model);
+  s.planner.dilation_m += 0.5;
+  const auto wider = build_world(s, *model);
+  const JointVector& q = s.start;
+  using B = CollisionWorld::Bodies;
+  const double fixed_m = plain->clearance(q, B::Fixed).distance_m;
+  const double moving_m = wider->clearance(q, B::Moving).distance_m;
+  REQUIRE(fixed_m > 0.6);
+  CHECK(wider->clearance(q, B::Fixed).distance_m == Approx(fixed_m - 0.5).margin(1e-6));
+  CHECK(wider->fixed_body_dilation_m() == wider->dilation_m());
+
+  wider->set_fixed_body_dilation(plain->dilation_m());
+  CHECK(wider->fixed_body_dilation_m() == plain->dilation_m());
+  CHECK(wider->clearance(q, B::Fixed).distance_m == Approx(fixed_m).margin(1e-6));
+  CHECK(wider->clearance(q, B::Moving).distance_m == Approx(moving_m).margin(1e-9));
+  CHECK_THROWS_AS(wider->set_fixed_body_dilation(-0.1), std::invalid_argument);
+}

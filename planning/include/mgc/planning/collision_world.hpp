@@ -146,6 +146,13 @@ class CollisionWorld {
 
   [[nodiscard]] const MachineModel& model() const noexcept { return model_; }
   [[nodiscard]] double dilation_m() const noexcept { return dilation_m_; }
+  //! Dilates the bodies no joint moves (body_moves() false: a carrier, an undercarriage) by
+  //! dilation_m instead of dilation_m(). A margin kept for the motion of the machine means nothing
+  //! for a body that cannot move, and would make a machine set up close to a structure collide in
+  //! every configuration. After finalize(), before the first query. Throws std::invalid_argument
+  //! for a negative or non-finite value. [m]
+  void set_fixed_body_dilation(double dilation_m);
+  [[nodiscard]] double fixed_body_dilation_m() const noexcept { return fixed_dilation_m_; }
   [[nodiscard]] int num_static() const noexcept { return static_cast<int>(static_names_.size()); }
   [[nodiscard]] int num_dynamic() const noexcept;
   [[nodiscard]] const std::string& static_name(int index) const { return static_names_.at(static_cast<std::size_t>(index)); }
@@ -176,6 +183,7 @@ class CollisionWorld {
 
   const MachineModel& model_;
   double dilation_m_ = 0.0;
+  double fixed_dilation_m_ = 0.0;
   std::vector<std::string> static_names_;
   std::unique_ptr<Impl> impl_;
   std::uint64_t collision_checks_ = 0;
