@@ -267,3 +267,21 @@ TEST_CASE("bad input: working envelope", "[unit]") {
   expect_error(with("  points: [hook]\n  ceiling_m: 30\n"), {32, "envelope.ceiling_m", "unknown field"});
   expect_error(with("  points: [hook]\n  height_ceiling_m: 30\n  slowdown_band_m: 0\n"), {33, "envelope.slowdown_band_m", "positive"});
 }
+
+TEST_CASE("bad input: guidance margins", "[unit]") {
+  const auto with = [](const std::string& guidance) { return scenario_text() + "guidance:\n" + guidance; };
+  {
+    TempFile file("scenario.yaml", with("  stop_margin_m: 0.1\n  planning_margin_m: 0.35\n"));
+    const Scenario s = io::load_scenario(file.path());
+    REQUIRE(s.guidance.has_value());
+    CHECK(*s.guidance->stop_margin_m == 0.1);
+    CHECK(*s.guidance->planning_margin_m == 0.35);
+    CHECK_FALSE(s.guidance->warning_margin_m.has_value());
+    CHECK_FALSE(s.guidance->escape_margin_m.has_value());
+    CHECK(s.guidance->ref.line == 30);
+    CHECK(s.guidance->ref.field == "guidance");
+  }
+  expect_error(with("  stop_margin_m: 0\n"), {31, "guidance.stop_margin_m", "expected a number in [0.01, 10]"});
+  expect_error(with("  stop_margin_m: far\n"), {31, "guidance.stop_margin_m", "expected a number"});
+  expect_error(with("  stop_margin: 0.2\n"), {31, "guidance.stop_margin", "unknown field"});
+}

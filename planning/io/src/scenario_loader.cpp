@@ -422,6 +422,24 @@ EnvelopeSpec read_envelope(const Value& value) {
   return e;
 }
 
+// guidance: the controller's clearance margins (docs/scenario-format.md). Each is a positive length;
+// how they must relate (stop < warning, stop <= escape <= planning) the controller checks with the
+// defaults of the fields not given, naming this section's line.
+GuidanceSpec read_guidance(const Value& value) {
+  Fields f = value.fields();
+  GuidanceSpec g;
+  g.ref = {value.file(), value.line(), value.path()};
+  const auto margin = [&f](const char* key, std::optional<double>& out) {
+    if (auto v = f.optional(key)) out = v->number_in(0.01, 10.0);
+  };
+  margin("stop_margin_m", g.stop_margin_m);
+  margin("warning_margin_m", g.warning_margin_m);
+  margin("planning_margin_m", g.planning_margin_m);
+  margin("escape_margin_m", g.escape_margin_m);
+  f.finish();
+  return g;
+}
+
 // start/goal: one field per joint, named after the joint with its unit: swing_deg, boom_length_m.
 JointVector read_configuration(const Value& value, const MachineDefinition& machine) {
   Fields f = value.fields();
@@ -562,6 +580,7 @@ Scenario load_scenario(const std::filesystem::path& path) {
   }
   s.planner = read_planner(f.required("planner"));
   if (auto envelope = f.optional("envelope")) s.envelope = read_envelope(*envelope);
+  if (auto guidance = f.optional("guidance")) s.guidance = read_guidance(*guidance);
   if (auto sim = f.optional("simulation")) s.simulation = read_simulation(*sim);
   f.finish();
   return s;

@@ -138,6 +138,18 @@ struct EnvelopeSpec {
   std::optional<double> slowdown_band_m;   //!< [m]; absent: the limiter's default
 };
 
+//! The `guidance` section: the controller's clearance margins on this site, beyond the planner's
+//! dilation (docs/controller.md, "Margins"). Every field is optional; an absent one keeps mgc's
+//! default, which suits a crane. An excavator works close to what it digs and loads, and needs
+//! smaller ones. The controller checks the combination and names `ref` when it does not hold.
+struct GuidanceSpec {
+  std::optional<double> stop_margin_m;      //!< the stop check's stop zone [m]
+  std::optional<double> warning_margin_m;   //!< the stop check's slow-down zone [m]
+  std::optional<double> planning_margin_m;  //!< what plans and repairs keep [m]
+  std::optional<double> escape_margin_m;    //!< what an escape keeps [m]
+  SourceRef ref;
+};
+
 struct Scenario {
   std::string file;
   std::string name;
@@ -155,6 +167,7 @@ struct Scenario {
   SimulationSpec simulation;
   std::optional<WorkCycleSpec> work_cycle;  //!< excavators only
   std::optional<EnvelopeSpec> envelope;
+  std::optional<GuidanceSpec> guidance;
   //! Two cranes of the machine file's type on one girder (seed 004); then `machine.joints` are
   //! dual_crane_joints(), and there is no base or task.
   std::optional<DualCraneSpec> dual_crane;
