@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -38,11 +39,12 @@ double longest_stop_s(const planning::MachineModel& model) {
   return t_s;
 }
 
-//! The planner's world: every body dilated by margin_m more than the scenario says, and every
+//! The planner's world: every moving body dilated by margin_m more than the scenario says, and every
 //! dynamic obstacle grown by dynamic_margin_m (boxes, cylinders and capsules; a mesh keeps its
 //! shape and only the dilation).
 std::unique_ptr<planning::CollisionWorld> planning_world(planning::Scenario scenario, const planning::MachineModel& model,
                                                         double margin_m, double dynamic_margin_m) {
+  const double scenario_dilation_m = scenario.planner.dilation_m;
   scenario.planner.dilation_m += margin_m;
   for (planning::DynamicObstacleSpec& d : scenario.dynamic_obstacles) {
     for (planning::ShapePart& part : d.obstacle.parts) {
@@ -61,7 +63,10 @@ std::unique_ptr<planning::CollisionWorld> planning_world(planning::Scenario scen
       }
     }
   }
-  return planning::build_world(scenario, model);
+  auto world = planning::build_world(scenario, model);
+  // The margin is for motion: a carrier or undercarriage keeps the scenario's dilation.
+  world->set_fixed_body_dilation(scenario_dilation_m);
+  return world;
 }
 
 guidance::SupervisorConfig supervisor_config(guidance::SupervisorConfig c, const planning::Scenario& s) {
@@ -109,6 +114,38 @@ std::int32_t envelope_alert_index(const guidance::EnvelopeDistance& d) noexcept 
   return static_cast<std::int32_t>(d.limit) + (d.limit == guidance::EnvelopeLimit::Wall ? std::max(d.wall, 0) : 0);
 }
 
+//! The scenario's guidance margins over the configured ones, checked together: a stop zone inside
+//! the warning zone, and plans that keep at least what an escape keeps, which keeps at least the
+//! stop margin (or a planned motion would itself be stopped).
+ControllerConfig with_site_margins(ControllerConfig c, const planning::Scenario& scenario) {
+  std::string where = "controller";
+  if (scenario.guidance) {
+    const planning::GuidanceSpec& g = *scenario.guidance;
+    if (g.stop_margin_m) c.stop_check.stop_margin_m = *g.stop_margin_m;
+    if (g.warning_margin_m) c.stop_check.warning_margin_m = *g.warning_margin_m;
+    if (g.planning_margin_m) c.planning_margin_m = *g.planning_margin_m;
+    if (g.escape_margin_m) c.escape_margin_m = *g.escape_margin_m;
+    where = g.ref.file + ":" + std::to_string(g.ref.line) + ": " + g.ref.field;
+  }
+  const auto number = [](double v) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", v);
+    return std::string(text);
+  };
+  const double stop = c.stop_check.stop_margin_m;
+  const double warning = c.stop_check.warning_margin_m;
+  if (!(stop > 0.0 && stop < warning)) {
+    throw std::invalid_argument(where + ": stop_margin_m (" + number(stop) + " m) must be above 0 and below warning_margin_m (" +
+                                number(warning) + " m); an absent field is mgc's default");
+  }
+  if (!(stop <= c.escape_margin_m && c.escape_margin_m <= c.planning_margin_m)) {
+    throw std::invalid_argument(where + ": expected stop_margin_m (" + number(stop) + " m) <= escape_margin_m (" +
+                                number(c.escape_margin_m) + " m) <= planning_margin_m (" + number(c.planning_margin_m) +
+                                " m); an absent field is mgc's default");
+  }
+  return c;
+}
+
 std::int8_t fault_source(guidance::TransitionReason r) noexcept {
   return r == guidance::TransitionReason::WatchdogTripped ? mgc::alert_t::SOURCE_WATCHDOG : mgc::alert_t::SOURCE_SENSING;
 }
@@ -116,21 +153,21 @@ std::int8_t fault_source(guidance::TransitionReason r) noexcept {
 }  // namespace
 
 Controller::Controller(const planning::Scenario& scenario, const ControllerConfig& config)
-    : config_(config),
+    : config_(with_site_margins(config, scenario)),
       scenario_(scenario),
       model_(planning::build_model(scenario_)),
-      plan_world_(planning_world(scenario_, *model_, config.planning_margin_m,
+      plan_world_(planning_world(scenario_, *model_, config_.planning_margin_m,
                                  config.obstacle_speed_floor_m_s * longest_stop_s(*model_))),
       safety_world_(planning::build_world(scenario_, *model_)),
       problem_(planning::planning_problem(scenario_, *model_, *plan_world_)),
       replanner_(planning::make_replanner(config.replanner)),
-      escape_world_(planning_world(scenario_, *model_, config.escape_margin_m, 0.0)),
+      escape_world_(planning_world(scenario_, *model_, config_.escape_margin_m, 0.0)),
       escape_problem_(planning::planning_problem(scenario_, *model_, *escape_world_)),
       escape_(planning::make_replanner(config.replanner)),
       retreat_(std::make_unique<planning::RetreatSearch>(*safety_world_, *escape_world_, config.retreat)),
       path_(model_->dof(), config.max_path_waypoints),
       envelope_(make_envelope(scenario_, *model_)),
-      stop_check_(*safety_world_, envelope_.get(), config.stop_check),
+      stop_check_(*safety_world_, envelope_.get(), config_.stop_check),
       supervisor_(supervisor_config(config.supervisor, scenario_)),
       limiter_(make_limiter(*model_)),
       n_(model_->dof()) {
@@ -336,6 +373,23 @@ void Controller::run_safety() noexcept {
     envelope_result_.nearest = envelope_->nearest(q_wrapped_);
     envelope_result_.violated = envelope_result_.nearest.limit != guidance::EnvelopeLimit::None && envelope_result_.nearest.distance_m < 0.0;
   }
+}
+
+void Controller::update_settled() noexcept {
+  if (!following_ || target_ < path_size_) {
+    settled_ = false;
+    setpoint_done_us_ = -1;
+    return;
+  }
+  if (setpoint_done_us_ < 0) setpoint_done_us_ = now_us_;
+  bool within = joints_valid_;
+  for (int j = 0; j < n_ && within; ++j) {
+    const bool revolute = model_->joints()[static_cast<std::size_t>(j)].type == planning::JointType::Revolute;
+    within = std::abs(q_unwrapped_[j] - target_unwrapped_[j]) <= (revolute ? config_.goal_tolerance_rad : config_.goal_tolerance_m);
+  }
+  const bool timed_out = now_us_ - setpoint_done_us_ >= config_.settle_timeout_us;
+  if (!settled_ && !within && timed_out) ++stats_.settle_timeouts;
+  settled_ = within || timed_out;
 }
 
 void Controller::load_path() noexcept {
@@ -555,6 +609,7 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
   in.planner.status = planner_status_;
   in.progress.at_rest = at_rest_;
   in.progress.command_at_rest = limiter_.at_rest();
+  update_settled();
   in.progress.path_complete = path_complete();
   in.watchdog_tripped = watchdog_tripped;
   if (commands.goal_request && supervisor_.state() == guidance::SupervisorState::Hold) {

@@ -130,6 +130,7 @@ TEST_CASE("the controller completes the thesis lift with the second crane swingi
   CHECK(st.replans >= 1);
   CHECK(st.goals_reached == 1);
   CHECK(st.trajectory_errors == 0);
+  CHECK(st.settle_timeouts == 0);
   // The lift swings about 120 deg, through the half turn where the wrapped angle jumps: no single
   // move may be said as more than that.
   CHECK(run.max_said_swing_deg > 30.0);
@@ -335,4 +336,60 @@ TEST_CASE("the controller does not move a crane that crane 2 has run into", "[fi
     CAPTURE(j);
     CHECK(std::abs(run.rig.sim->truth().position[static_cast<std::size_t>(j)] - stopped[static_cast<std::size_t>(j)]) < 1e-3);
   }
+}
+
+TEST_CASE("the controller completes the excavator's move past the truck that parks on its path", "[firmware][sim][e2e]") {
+  // The bucket swings from the trench to the loading truck while truck 2 drives in and parks
+  // across the swing (excavator-truck.yaml). The site's guidance section sets an excavator's
+  // margins: with a crane's, the boom by the pipeline and the bucket over the truck bed would
+  // leave no valid start or goal.
+  for (const double offset_s : {0.0, 4.0}) {
+    CAPTURE(offset_s);
+    sim::SimConfig config = SimRig::quiet_config();
+    config.scenario_time_offset_s = offset_s;
+    Run run("excavator-truck.yaml", config, "ctl-excavator");
+    while (run.done_us < 0 && run.rig.t_us < SimRig::at_sim_s(120.0)) run.rig.run(5'000'000);
+    const firmware::ControllerStats& st = run.controller.stats();
+    INFO(run.log());
+    CAPTURE(st.safety_stops, st.replans, st.escapes, st.paths_shortened, run.min_true_clearance_m, run.min_true_dynamic_m);
+    REQUIRE(run.rig.scenario.guidance.has_value());
+    CHECK(st.plans == 1);
+    CHECK(st.goals_reached == 1);
+    CHECK(st.safety_stops >= 1);
+    CHECK(st.trajectory_errors == 0);
+    // The 68 deg/s swing overshoots its last waypoint; the goal is reached only once it is back.
+    CHECK(st.settle_timeouts == 0);
+    const double stop_margin_m = *run.rig.scenario.guidance->stop_margin_m;
+    CHECK(run.min_true_clearance_m > stop_margin_m);
+    CHECK(run.min_true_dynamic_m > stop_margin_m);
+    for (int j = 0; j < run.controller.num_joints(); ++j) {
+      CAPTURE(j);
+      const double error = std::remainder(run.rig.sim->truth().position[static_cast<std::size_t>(j)] - run.rig.scenario.goal[j],
+                                          2.0 * std::numbers::pi);
+      CHECK(std::abs(error) < 0.5 * std::numbers::pi / 180.0);
+    }
+  }
+}
+
+TEST_CASE("the controller refuses a site's guidance margins that do not fit together", "[firmware]") {
+  planning::Scenario s = planning::io::load_scenario(test::scenario_path("thesis-steel-frame.yaml"));
+  s.guidance = planning::GuidanceSpec{};
+  s.guidance->ref = {"site.yaml", 70, "guidance"};
+  s.guidance->stop_margin_m = 1.2;  // above the default warning margin, 1 m
+  const auto message = [&s]() -> std::string {
+    try {
+      firmware::Controller c(s, firmware::ControllerConfig{});
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  CHECK(message() == "site.yaml:70: guidance: stop_margin_m (1.2 m) must be above 0 and below warning_margin_m (1 m); an absent "
+                     "field is mgc's default");
+  s.guidance->stop_margin_m = 0.3;
+  s.guidance->escape_margin_m = 1.5;  // above the default planning margin, 1 m
+  CHECK(message() == "site.yaml:70: guidance: expected stop_margin_m (0.3 m) <= escape_margin_m (1.5 m) <= planning_margin_m (1 m); "
+                     "an absent field is mgc's default");
+  s.guidance->planning_margin_m = 1.5;
+  CHECK(message().empty());
 }

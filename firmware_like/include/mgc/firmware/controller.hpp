@@ -84,6 +84,13 @@ struct ControllerConfig {
   //! check stops only a motion that comes this much nearer than where the machine started it, or
   //! nearer than the stop margin if it started outside (guidance::StopCheck::set_retreat_floor). [m]
   double retreat_floor_tolerance_m = 0.1;
+  //! The goal is reached when every joint stands this near its last waypoint: a fast joint that
+  //! overshoots is at rest for an instant where it turns back, and must not end the lift there. [rad]
+  double goal_tolerance_rad = 0.2 * 3.14159265358979323846 / 180.0;
+  double goal_tolerance_m = 0.02;  //!< the same for a prismatic joint [m]
+  //! After the setpoint has finished, how long the machine may take to come within the goal
+  //! tolerance before the path counts as complete anyway (stats().settle_timeouts). [µs]
+  std::int64_t settle_timeout_us = 5'000'000;
   guidance::StopCheckConfig stop_check{};
   //! num_joints and uwb_required are set from the scenario.
   guidance::SupervisorConfig supervisor{};
@@ -129,6 +136,7 @@ struct ControllerStats {
   double min_envelope_m = 1e9;  //!< least envelope distance of a monitored point while moving (1e9: no envelope) [m]
   std::uint64_t estimate_invalid_cycles = 0;  //!< cycles without a valid position of every joint
   std::uint64_t trajectory_errors = 0;  //!< cycles whose setpoint generator refused its input
+  int settle_timeouts = 0;  //!< paths completed without the machine within the goal tolerance of the last waypoint
 };
 
 class Controller {
@@ -161,8 +169,9 @@ class Controller {
   [[nodiscard]] std::size_t num_trackers() const noexcept { return trackers_.size(); }
   //! The speed the stop check assumes for the dynamic obstacles this cycle. [m/s]
   [[nodiscard]] double obstacle_speed_m_s() const noexcept { return obstacle_speed_m_s_; }
-  //! The follower's path has been completed (the goal's segment finished).
-  [[nodiscard]] bool path_complete() const noexcept { return following_ && target_ >= path_size_; }
+  //! The follower's path has been completed: the setpoint has finished the last segment and the
+  //! machine stands within the goal tolerance of it, or has had settle_timeout_us to get there.
+  [[nodiscard]] bool path_complete() const noexcept { return following_ && target_ >= path_size_ && settled_; }
 
  private:
   void estimate(const hal::SensorSnapshot& s, double dt_s) noexcept;
@@ -172,6 +181,8 @@ class Controller {
   //! Every tracked obstacle's speed is measured and near its floor.
   [[nodiscard]] bool obstacles_settled() const noexcept;
   void load_path() noexcept;
+  //! settled_ for this cycle.
+  void update_settled() noexcept;
   //! Takes the planner's solution into path_: behind the retreat's start when there is one, and
   //! shortened unless it is the first plan.
   void take_path() noexcept;
@@ -268,6 +279,8 @@ class Controller {
   planning::JointVector v_command_;  //!< for the load chart's cut
   planning::JointVector v_probe_;    //!< a velocity the envelope is asked about
   int moving_joint_ = -1;
+  bool settled_ = false;                 //!< within the goal tolerance of the last waypoint, or timed out
+  std::int64_t setpoint_done_us_ = -1;   //!< when the setpoint finished the last segment
   std::uint32_t plan_id_ = 0;
 
   // Alerts: one slot per kind, an id from raise to clear.
