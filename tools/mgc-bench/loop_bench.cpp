@@ -2,10 +2,11 @@
 // The `loop` suite of mgc-bench: what the controller's whole cycle costs (Hal::read,
 // Controller::step, Hal::write, as the mgc binary runs them) over lifts back and forth on the
 // thesis site with the second crane swinging into the first, how long the loop takes from the UWB
-// frame that shows the intruder to the stop command on the bus, and the OS's wake-up lateness of
-// the cyclic executive. The controller runs in-process against the simulated crane on a manual
-// clock, so the simulator's own cost is outside every timed call. All times are on the steady
-// clock of this machine; compare figures within one run, not across runs.
+// frame that shows the intruder to the stop command on the bus, the OS's wake-up lateness of the
+// cyclic executive, and how one lift ends over a sweep of the second crane's timing (stop and
+// repair, escape, retreat, contact). The controller runs in-process against the simulated crane
+// on a manual clock, so the simulator's own cost is outside every timed call. All times are on the
+// steady clock of this machine; compare figures within one run, not across runs.
 
 #include "loop_bench.hpp"
 
@@ -32,7 +33,9 @@
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/clock.hpp"
 #include "mgc/hal/hal.hpp"
+#include "mgc/planning/collision_world.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/scenario.hpp"
 #include "mgc/sim/simulator.hpp"
 
 namespace mgc::bench {
@@ -336,6 +339,142 @@ Live measure_live(std::int64_t period_us, double seconds) {
   return live;
 }
 
+// --- 4. Intrusion timing sweep ----------------------------------------------------------------
+
+//! One lift with crane 2's script shifted by offset_s: how it ended and what it took.
+struct SweepRun {
+  double offset_s = 0.0;
+  bool goal_reached = false;
+  bool held_in_contact = false;      //!< HOLD after StartBlocked (retrying or out of retries), touching crane 2 (below)
+  SupervisorState state = SupervisorState::Init;  //!< at the end of the run
+  TransitionReason reason = TransitionReason::None;
+  bool retry_pending = false;
+  TransitionReason hold_cause = TransitionReason::None;  //!< the last transition into HOLD other than RetryLimitReached
+  double end_s = 0.0;                //!< simulation time at the end of the run [s]
+  double lift_s = 0.0;               //!< goal request accepted -> goal reached [s]
+  firmware::ControllerStats stats{};
+  double min_true_clearance_m = std::numeric_limits<double>::infinity();  //!< to the site and crane 2 [m]
+  double min_true_dynamic_m = std::numeric_limits<double>::infinity();    //!< to crane 2 alone [m]
+  double end_true_dynamic_m = std::numeric_limits<double>::infinity();    //!< to crane 2 at the last sample [m]
+  //! To crane 2 in the cycle of the last HOLD for StartBlocked (NaN: none) [m]
+  double blocked_true_dynamic_m = std::numeric_limits<double>::quiet_NaN();
+  double compute_max_us = 0.0;       //!< the slowest cycle's read -> write (steady clock) [µs]
+  double compute_max_at_s = 0.0;     //!< its simulation time [s]
+  SupervisorState compute_max_state = SupervisorState::Init;  //!< the state its step ended in
+  double cpu_max_us = 0.0;           //!< the most thread CPU time a cycle took over the same calls [µs]
+  double cpu_max_at_s = 0.0;         //!< its simulation time [s]
+  SupervisorState cpu_max_state = SupervisorState::Init;
+  std::string transitions;           //!< the supervisor's transitions, "t s STATE (Reason); ..."
+  double wall_s = 0.0;
+};
+
+//! The scenario's goal requested once in HOLD with quiet sensors (no UWB noise or dropouts, no
+//! encoder noise, as tests/sim/sim_rig.hpp's quiet_config()); runs until the goal is reached or
+//! limit_s of simulated time. The true crane's clearance to the true site and crane 2 is measured
+//! every 50 ms of simulated time in a world without dilation, as tests/firmware/controller_test.cpp
+//! does.
+SweepRun measure_sweep_run(const planning::Scenario& scenario, double offset_s, double limit_s) {
+  sim::SimConfig config;
+  config.encoder_noise_counts = 0.0;
+  config.uwb.noise_sigma_m = 0.0;
+  config.uwb.dropout_probability = 0.0;
+  config.scenario_time_offset_s = offset_s;
+  constexpr std::int64_t kCycleUs = 10'000;
+  Rig rig(scenario, std::move(config), kCycleUs);
+  firmware::Controller& controller = *rig.controller;
+  const int n = controller.num_joints();
+  planning::Scenario bare = scenario;
+  bare.planner.dilation_m = 0.0;
+  const std::unique_ptr<planning::MachineModel> truth_model = planning::build_model(bare);
+  const std::unique_ptr<planning::CollisionWorld> truth_world = planning::build_world(bare, *truth_model);
+  planning::JointVector q(n);
+  //! The true crane's clearance to the true site and crane 2, and to crane 2 alone. [m]
+  const auto true_clearance = [&]() {
+    const auto& truth = rig.sim->truth();
+    for (int j = 0; j < n; ++j) q[j] = truth.position[static_cast<std::size_t>(j)];
+    for (std::size_t d = 0; d < scenario.dynamic_obstacles.size(); ++d) {
+      truth_world->set_dynamic_pose(static_cast<int>(d), rig.sim->obstacle_pose(d));
+    }
+    const double all_m = truth_world->clearance(q).distance_m;
+    const double dynamic_m =
+        scenario.dynamic_obstacles.empty()
+            ? std::numeric_limits<double>::infinity()
+            : truth_world->clearance(q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
+    return std::pair<double, double>{all_m, dynamic_m};
+  };
+
+  SweepRun r;
+  r.offset_s = offset_s;
+  bool requested = false;
+  std::int64_t lift_start_us = -1;
+  const std::int64_t wall0 = now_ns();
+  rig.run(
+      kSimZeroUs + static_cast<std::int64_t>(limit_s * 1e6),
+      [&](std::int64_t /*t_us*/) {
+        firmware::ControllerCommands c;
+        if (!requested && controller.supervisor().state() == SupervisorState::Hold) {
+          c.goal_request = true;
+          requested = true;
+        }
+        return c;
+      },
+      [&](const Cycle& c, const hal::SensorSnapshot& s, const firmware::ControllerOutput& out) {
+        if (c.total_us() > r.compute_max_us) {
+          r.compute_max_us = c.total_us();
+          r.compute_max_at_s = sim_s(c.t_us);
+          r.compute_max_state = out.supervisor.state;
+        }
+        if (c.cpu_us > r.cpu_max_us) {
+          r.cpu_max_us = c.cpu_us;
+          r.cpu_max_at_s = sim_s(c.t_us);
+          r.cpu_max_state = out.supervisor.state;
+        }
+        r.end_s = sim_s(c.t_us);
+        if (s.cycle % static_cast<std::uint64_t>(50'000 / kCycleUs) == 0) {
+          const auto [all_m, dynamic_m] = true_clearance();
+          r.min_true_clearance_m = std::min(r.min_true_clearance_m, all_m);
+          r.end_true_dynamic_m = dynamic_m;
+          r.min_true_dynamic_m = std::min(r.min_true_dynamic_m, dynamic_m);
+        }
+        if (!out.supervisor.transitioned) return true;
+        r.transitions += fmt("%s%.2f s %s (%s)", r.transitions.empty() ? "" : "; ", sim_s(c.t_us), guidance::to_string(out.supervisor.state),
+                             guidance::to_string(out.supervisor.reason));
+        if (out.supervisor.state == SupervisorState::Hold && out.supervisor.reason != TransitionReason::RetryLimitReached) {
+          r.hold_cause = out.supervisor.reason;
+          if (r.hold_cause == TransitionReason::StartBlocked) r.blocked_true_dynamic_m = true_clearance().second;
+        }
+        if (out.supervisor.reason == TransitionReason::GoalRequested) lift_start_us = c.t_us;
+        if (out.supervisor.reason == TransitionReason::GoalReached) {
+          r.goal_reached = true;
+          if (lift_start_us >= 0) r.lift_s = static_cast<double>(c.t_us - lift_start_us) * 1e-6;
+          return false;
+        }
+        return true;
+      });
+  r.wall_s = static_cast<double>(now_ns() - wall0) * 1e-9;
+  r.stats = controller.stats();
+  r.state = controller.supervisor().state();
+  r.reason = controller.supervisor().reason();
+  r.retry_pending = controller.supervisor().retry_pending();
+  // Contact as the controller means it (docs/controller.md §Retreat): its bodies, grown by the
+  // scenario's dilation, touch crane 2; measured here on the true poses when the repair was last
+  // refused. The supervisor retries the blocked repair every second, 30 times, then drops the goal
+  // (RetryLimitReached) and holds.
+  r.held_in_contact = !r.goal_reached && r.state == SupervisorState::Hold && r.hold_cause == TransitionReason::StartBlocked &&
+                      (r.retry_pending || r.reason == TransitionReason::RetryLimitReached) &&
+                      r.blocked_true_dynamic_m <= scenario.planner.dilation_m;
+  return r;
+}
+
+std::string sweep_outcome(const SweepRun& r) {
+  if (r.goal_reached) return "goal reached";
+  if (r.held_in_contact) {
+    return r.retry_pending ? std::string("holding in contact, retry pending")
+                           : fmt("holding in contact, retries done (%s, goal dropped)", guidance::to_string(r.reason));
+  }
+  return fmt("other: %s (%s)%s", guidance::to_string(r.state), guidance::to_string(r.reason), r.retry_pending ? ", retry pending" : "");
+}
+
 }  // namespace
 
 int run_loop_suite(const LoopBenchOptions& options) {
@@ -347,7 +486,9 @@ int run_loop_suite(const LoopBenchOptions& options) {
     std::string md = "### loop\n\nThe controller's cycle on `" + std::string(kScenario) +
                      "` in-process against the simulated crane (loop bus, manual clock: the simulator's cost is not in any figure). `--loop-cycles " +
                      std::to_string(options.cycles) + " --reaction-runs " + std::to_string(options.reaction_runs) +
-                     fmt(" --loop-seconds %g --seed %llu`.\n\n", options.loop_seconds, static_cast<unsigned long long>(options.first_seed));
+                     fmt(" --loop-seconds %g --seed %llu --sweep-first %g --sweep-last %g --sweep-step %g --sweep-limit %g`.\n\n",
+                         options.loop_seconds, static_cast<unsigned long long>(options.first_seed), options.sweep_first_s,
+                         options.sweep_last_s, options.sweep_step_s, options.sweep_limit_s);
     std::string csv = "index,t_s,state,planner_slice,stop_samples,read_us,step_us,write_us,total_us,cpu_us\n";
     std::string reaction_csv = "rate_hz,uwb_rate_hz,offset_s,seed,stopped,goal_reached,stop_sim_s,frame_age_us,compute_us,reaction_us,fix_this_cycle,clearance_m,obstacle_speed_m_s\n";
 
@@ -577,6 +718,60 @@ int run_loop_suite(const LoopBenchOptions& options) {
                 static_cast<unsigned long long>(es.skipped_periods), static_cast<unsigned long long>(es.watchdog_trips));
     }
 
+    // 4. Intrusion timing sweep.
+    std::string sweep_csv;
+    if (options.sweep_step_s > 0.0) {
+      std::vector<double> offsets;
+      for (int i = 0;; ++i) {
+        const double offset = options.sweep_first_s + options.sweep_step_s * i;
+        if (offset > options.sweep_last_s + 1e-9) break;
+        offsets.push_back(offset);
+      }
+      md += fmt("\n#### Intrusion timing sweep\n\n"
+                "The lift (the scenario's goal requested once in HOLD) with crane 2's script %g, %g, ... %g s ahead (%zu runs), quiet "
+                "sensors (no UWB noise or dropouts, no encoder noise), until the goal is reached or %.0f s of simulated time. Lift: goal "
+                "request accepted → goal reached. Holding in contact: HOLD after StartBlocked, with a retry pending or with the retries "
+                "done (after 30 a second apart the supervisor drops the goal, RetryLimitReached, and the crane stays in HOLD), the "
+                "true crane within the scenario's dilation (%.2f m) of the true crane 2 when the repair was last refused. Repairs "
+                "count every repair started, the "
+                "supervisor's retries included. Least true clearance: the true crane to the true site and crane 2 in a world without "
+                "dilation, every 50 ms of simulated time. Compute max: the run's slowest Hal::read + Controller::step + Hal::write "
+                "(steady clock), with the most thread CPU time a cycle of the run took beside it.\n\n"
+                "| offset s | outcome | lift s | safety stops | repairs | escapes | retreats found / refused | retreat cycles | "
+                "paths shortened / waypoints removed | least true clearance m | to crane 2 m | compute max µs | thread CPU max µs |\n"
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+                options.sweep_first_s, options.sweep_first_s + options.sweep_step_s, offsets.empty() ? 0.0 : offsets.back(), offsets.size(),
+                options.sweep_limit_s, scenario.planner.dilation_m);
+      sweep_csv = "offset_s,outcome,goal_reached,held_in_contact,state,reason,retry_pending,end_s,lift_s,safety_stops,replans,escapes,"
+                  "retreats,retreats_refused,retreat_cycles,paths_shortened,waypoints_removed,trajectory_errors,min_true_clearance_m,"
+                  "min_true_dynamic_m,end_true_dynamic_m,blocked_true_dynamic_m,compute_max_us,compute_max_at_s,compute_max_state,cpu_max_us,cpu_max_at_s,cpu_max_state,wall_s,transitions\n";
+      std::vector<double> lift_times;
+      int held = 0;
+      const std::int64_t sweep_wall0 = now_ns();
+      for (std::size_t i = 0; i < offsets.size(); ++i) {
+        std::fprintf(stderr, "[loop] intrusion sweep, run %zu/%zu (offset %.0f s)\n", i + 1, offsets.size(), offsets[i]);
+        const SweepRun r = measure_sweep_run(scenario, offsets[i], options.sweep_limit_s);
+        const firmware::ControllerStats& st = r.stats;
+        if (r.goal_reached) lift_times.push_back(r.lift_s);
+        if (r.held_in_contact) ++held;
+        const std::string outcome = sweep_outcome(r);
+        md += fmt("| %.0f | %s | %s | %d | %d | %d | %d / %d | %llu | %d / %d | %.2f | %.2f | %.0f | %.0f |\n", r.offset_s, outcome.c_str(),
+                  r.goal_reached ? fmt("%.1f", r.lift_s).c_str() : "–", st.safety_stops, st.replans, st.escapes, st.retreats,
+                  st.retreats_refused, static_cast<unsigned long long>(st.retreat_cycles), st.paths_shortened, st.waypoints_removed,
+                  r.min_true_clearance_m, r.min_true_dynamic_m, r.compute_max_us, r.cpu_max_us);
+        sweep_csv += fmt("%.3f,\"%s\",%d,%d,%s,%s,%d,%.2f,%.2f,%d,%d,%d,%d,%d,%llu,%d,%d,%llu,%.4f,%.4f,%.4f,%.4f,%.1f,%.2f,%s,%.1f,%.2f,%s,%.2f,\"%s\"\n", r.offset_s,
+                         outcome.c_str(), r.goal_reached ? 1 : 0, r.held_in_contact ? 1 : 0, guidance::to_string(r.state),
+                         guidance::to_string(r.reason), r.retry_pending ? 1 : 0, r.end_s, r.lift_s, st.safety_stops, st.replans,
+                         st.escapes, st.retreats, st.retreats_refused, static_cast<unsigned long long>(st.retreat_cycles),
+                         st.paths_shortened, st.waypoints_removed, static_cast<unsigned long long>(st.trajectory_errors),
+                         r.min_true_clearance_m, r.min_true_dynamic_m, r.end_true_dynamic_m, r.blocked_true_dynamic_m, r.compute_max_us, r.compute_max_at_s,
+                         guidance::to_string(r.compute_max_state), r.cpu_max_us, r.cpu_max_at_s, guidance::to_string(r.cpu_max_state), r.wall_s, r.transitions.c_str());
+      }
+      md += fmt("\n%zu of %zu offsets reached the goal (median lift %s), %d held in contact, %zu other; %.1f s wall.\n",
+                lift_times.size(), offsets.size(), lift_times.empty() ? "none" : fmt("%.1f s", percentile(lift_times, 0.5)).c_str(), held,
+                offsets.size() - lift_times.size() - static_cast<std::size_t>(held), static_cast<double>(now_ns() - sweep_wall0) * 1e-9);
+    }
+
     md += "\nThe first lift's transitions: ";
     for (std::size_t i = 0; i < cr.transitions.size() && i < 12; ++i) md += (i ? "; " : "") + cr.transitions[i];
     md += fmt(".\n\nWhole suite: %.1f s; load average (1, 5, 15 min) before %s, after %s.\n",
@@ -588,6 +783,7 @@ int run_loop_suite(const LoopBenchOptions& options) {
       std::ofstream(options.out_dir + "/loop.md") << md;
       std::ofstream(options.out_dir + "/loop.csv") << csv;
       std::ofstream(options.out_dir + "/loop_reaction.csv") << reaction_csv;
+      if (!sweep_csv.empty()) std::ofstream(options.out_dir + "/loop_sweep.csv") << sweep_csv;
     }
     return 0;
   } catch (const std::exception& e) {

@@ -64,6 +64,12 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_option("--loop-seconds", loop.loop_seconds, "loop suite: seconds of the live cyclic executive (0: skip)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--sweep-first", loop.sweep_first_s, "loop suite: the intrusion sweep's first script offset of crane 2 [s]");
+  app.add_option("--sweep-last", loop.sweep_last_s, "loop suite: the intrusion sweep's last script offset of crane 2 [s]");
+  app.add_option("--sweep-step", loop.sweep_step_s, "loop suite: the intrusion sweep's offset step (0: skip the sweep) [s]")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--sweep-limit", loop.sweep_limit_s, "loop suite: simulated seconds a sweep run may take to reach the goal")
+      ->check(CLI::PositiveNumber);
   app.add_option("--ompl-time-limit", ompl.time_limit_s, "OMPL: seconds per query before it counts as a failure")
       ->check(CLI::PositiveNumber);
   app.add_option("--ompl-range", ompl.range_steps, "OMPL RRT/RRTConnect extension length in steps; 0: our extend step")
