@@ -172,7 +172,9 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       limiter_(make_limiter(*model_)),
       n_(model_->dof()) {
   if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
-  if (config.plan_iterations_per_cycle < 1) throw std::invalid_argument("controller: plan_iterations_per_cycle must be >= 1");
+  if (config.plan_iterations_per_cycle < 1 || config.escape_iterations_per_cycle < 1) {
+    throw std::invalid_argument("controller: plan_iterations_per_cycle and escape_iterations_per_cycle must be >= 1");
+  }
   if (config.retreat_configs_per_cycle < 1) throw std::invalid_argument("controller: retreat_configs_per_cycle must be >= 1");
   if (config.shorten_chunks_per_cycle < 1) throw std::invalid_argument("controller: shorten_chunks_per_cycle must be >= 1");
   if (config.max_path_waypoints < 2) throw std::invalid_argument("controller: max_path_waypoints must be >= 2");
@@ -496,7 +498,7 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
         stats_.waypoints_removed += removed;
       }
     } else {
-      planner_status_ = active_->step(config_.plan_iterations_per_cycle);
+      planner_status_ = active_->step(active_ == escape_.get() ? config_.escape_iterations_per_cycle : config_.plan_iterations_per_cycle);
     }
     ++stats_.planner_cycles;
   }
