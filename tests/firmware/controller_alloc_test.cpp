@@ -16,6 +16,7 @@ TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re
   sim::SimConfig config = SimRig::quiet_config();
   config.scenario_time_offset_s = 40.0;  // crane 2 swings into the lift (controller_test.cpp)
   SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc");
+  rig.calibrate_valves();
   planning::Scenario scenario = rig.scenario;
   const auto model = planning::build_model(scenario);
   planning::Kinematics k;
@@ -61,6 +62,7 @@ TEST_CASE("the controller's cycle does not allocate through a retreat and an esc
   sim::SimConfig config = SimRig::quiet_config();
   config.scenario_time_offset_s = 28.0;
   SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc-retreat");
+  rig.calibrate_valves();
   firmware::Controller controller(rig.scenario, firmware::ControllerConfig{});
   bool goal_sent = false;
   long allocations_in_steps = 0;

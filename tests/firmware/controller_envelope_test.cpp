@@ -96,6 +96,7 @@ TEST_CASE("the scenario's envelope binds: the plain lift swings over the road", 
 
 TEST_CASE("the controller completes the lift inside the working envelope", "[firmware][sim][e2e][envelope]") {
   SimRig rig(kScenario, SimRig::quiet_config(), "ctl-envelope");
+  rig.calibrate_valves();
   firmware::Controller controller(rig.scenario, firmware::ControllerConfig{});
   REQUIRE(controller.has_envelope());
 
@@ -159,6 +160,7 @@ TEST_CASE("under a low ceiling the controller slows only the motions toward it",
   // slowdown band, outside the planner's margin. Boom up and telescope out raise the tip; they are
   // slowed when they do, and nothing else ever is.
   SimRig rig("thesis-steel-frame.yaml", SimRig::quiet_config(), "ctl-ceiling");
+  rig.calibrate_valves();
   planning::Scenario scenario = rig.scenario;
   const auto model = planning::build_model(scenario);
   planning::Kinematics k;

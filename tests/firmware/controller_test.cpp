@@ -55,6 +55,7 @@ struct Run {
     bare.planner.dilation_m = 0.0;
     truth_model = planning::build_model(bare);
     truth_world = planning::build_world(bare, *truth_model);
+    rig.calibrate_valves();
     rig.on_cycle = [this](const hal::SensorSnapshot& s) { cycle(s); };
   }
 

@@ -23,9 +23,10 @@ TEST_CASE("the loop reacts to the intruding crane within three periods", "[hil][
   // which is the UWB cadence, not the loop (the bench's table has both). With a frame in every
   // period the frame's age at the stop measures the loop.
   sim::SimConfig config = SimRig::quiet_config();
-  config.scenario_time_offset_s = 10.0;
+  config.scenario_time_offset_s = 14.0;  // crane 2 swings in 46-70 s into the lift, as our load arrives
   config.uwb.rate_hz = 100.0;
   SimRig rig("thesis-steel-frame.yaml", config, "hil-reaction");
+  rig.calibrate_valves();
   firmware::Controller controller(rig.scenario, firmware::ControllerConfig{});
 
   bool requested = false;
