@@ -5,12 +5,45 @@
 // rule, under a ceiling close above the boom tip.
 #include <catch2/catch.hpp>
 
+#include <memory>
+
 #include "../sim/sim_rig.hpp"
 #include "allocation_counter.hpp"
 #include "mgc/firmware/controller.hpp"
 
 using namespace mgc;
 using test::SimRig;
+
+namespace {
+
+struct Counts {
+  long cycles = 0;
+  long allocations = 0;  //!< made inside Controller::step
+};
+using Counted = std::shared_ptr<Counts>;
+
+//! The rig's cycle: the scenario's goal requested once in HOLD, the commands written, and the
+//! allocations inside each step() counted.
+Counted drive(SimRig& rig, firmware::Controller& controller) {
+  auto counts = std::make_shared<Counts>();
+  auto goal_sent = std::make_shared<bool>(false);
+  rig.on_cycle = [&rig, &controller, counts, goal_sent](const hal::SensorSnapshot& s) {
+    firmware::ControllerCommands commands;
+    if (!*goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
+      commands.goal_request = true;
+      *goal_sent = true;
+    }
+    const long before = test::allocation_count();
+    const firmware::ControllerOutput out = controller.step(s, SimRig::kCycleUs, commands, false);
+    counts->allocations += test::allocation_count() - before;
+    ++counts->cycles;
+    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
+  };
+  return counts;
+}
+
+}  // namespace
 
 TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re-plan and the goal", "[firmware][sim][alloc]") {
   sim::SimConfig config = SimRig::quiet_config();
@@ -27,32 +60,17 @@ TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re
   ceiling.walls.push_back({Eigen::Vector3d::UnitY(), -60.0});
   scenario.envelope = ceiling;
   firmware::Controller controller(scenario, firmware::ControllerConfig{});
-  bool goal_sent = false;
-  long cycles = 0;
-  long allocations_in_steps = 0;
-  rig.on_cycle = [&](const hal::SensorSnapshot& s) {
-    firmware::ControllerCommands commands;
-    if (!goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
-      commands.goal_request = true;
-      goal_sent = true;
-    }
-    const long before = test::allocation_count();
-    const firmware::ControllerOutput out = controller.step(s, SimRig::kCycleUs, commands, false);
-    allocations_in_steps += test::allocation_count() - before;
-    ++cycles;
-    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
-    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
-  };
+  const Counted counted = drive(rig, controller);
   rig.run(SimRig::at_sim_s(360.0) - rig.t_us);
   const firmware::ControllerStats& st = controller.stats();
-  CAPTURE(cycles, st.plans, st.replans, st.safety_stops, st.goals_reached, st.envelope_cut_cycles);
+  CAPTURE(counted->cycles, st.plans, st.replans, st.safety_stops, st.goals_reached, st.envelope_cut_cycles);
   REQUIRE(st.plans == 1);
   REQUIRE(st.safety_stops >= 1);
   REQUIRE(st.replans >= 1);
   REQUIRE(st.goals_reached == 1);
   REQUIRE(st.envelope_cut_cycles > 0);
-  CHECK(cycles > 30'000);
-  CHECK(allocations_in_steps == 0);
+  CHECK(counted->cycles > 30'000);
+  CHECK(counted->allocations == 0);
 }
 
 TEST_CASE("the controller's cycle does not allocate through a retreat and an escape", "[firmware][sim][alloc]") {
@@ -64,25 +82,12 @@ TEST_CASE("the controller's cycle does not allocate through a retreat and an esc
   SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc-retreat");
   rig.calibrate_valves();
   firmware::Controller controller(rig.scenario, firmware::ControllerConfig{});
-  bool goal_sent = false;
-  long allocations_in_steps = 0;
-  rig.on_cycle = [&](const hal::SensorSnapshot& s) {
-    firmware::ControllerCommands commands;
-    if (!goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
-      commands.goal_request = true;
-      goal_sent = true;
-    }
-    const long before = test::allocation_count();
-    const firmware::ControllerOutput out = controller.step(s, SimRig::kCycleUs, commands, false);
-    allocations_in_steps += test::allocation_count() - before;
-    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
-    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
-  };
+  const Counted counted = drive(rig, controller);
   while (controller.stats().goals_reached == 0 && rig.t_us < SimRig::at_sim_s(800.0)) rig.run(10'000'000);
   const firmware::ControllerStats& st = controller.stats();
   CAPTURE(st.safety_stops, st.escapes, st.retreats, st.retreat_cycles, st.goals_reached);
   REQUIRE(st.retreats >= 1);
   REQUIRE(st.retreat_cycles > 0);
   REQUIRE(st.goals_reached == 1);
-  CHECK(allocations_in_steps == 0);
+  CHECK(counted->allocations == 0);
 }

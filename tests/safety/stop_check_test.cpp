@@ -29,6 +29,14 @@ MachineState state(double swing_deg, double swing_velocity_deg_s) {
 
 constexpr double kFullSlewDegS = 3.75;  // the TMS870's swing speed
 
+//! Crane-2 turned so that its hook load (at (18.38, 0, 5.38) m in its frame) hangs south_m south of
+//! ours with the boom at swing 180 deg (our load at (-18.1, 0) m).
+void park_crane2(planning::CollisionWorld& world, double south_m) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(-18.1 - 18.38, -south_m, 7.0 - 5.38);
+  world.set_dynamic_pose(0, pose);
+}
+
 }  // namespace
 
 TEST_CASE("stop check: clear at rest and when slewing away from the frame", "[unit]") {
@@ -117,9 +125,7 @@ TEST_CASE("stop check: crane-2 moved into the stop path gives a stop on the dyna
 
   // Crane-2 swung round so that its hook load (at (18.38, 0, 5.38) m in its frame) hangs 3.2 m south
   // of ours: 1.05 m clear at rest, inside the 1.5 m that our load travels while braking.
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = Eigen::Vector3d(-18.1 - 18.38, -3.2, 7.0 - 5.38);
-  world.set_dynamic_pose(0, pose);
+  park_crane2(world, 3.2);
   const StopCheckResult at_rest = check.check(state(180, 0));
   CHECK(at_rest.status != StopCheckStatus::Stop);
   CHECK(at_rest.nearest.with == Contact::With::Dynamic);
@@ -136,9 +142,7 @@ TEST_CASE("stop check: a dynamic obstacle's reach during the stop counts", "[uni
   planning::CollisionWorld& world = *t.loaded.world;
   // Crane-2's load 4.45 m south of ours: the braking slew alone keeps clear of its stop margin, its
   // reach of 1 m/s over the 2.5 s stop does not.
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = Eigen::Vector3d(-18.1 - 18.38, -4.45, 7.0 - 5.38);
-  world.set_dynamic_pose(0, pose);
+  park_crane2(world, 4.45);
   StopCheckConfig still;
   still.dynamic_obstacle_speed_m_s = 0.0;
   StopCheck without(world, nullptr, still);
@@ -228,9 +232,7 @@ TEST_CASE("stop check: with a retreat floor a machine inside the stop margin may
   planning::CollisionWorld& world = *t.loaded.world;
   // Crane-2's load 2.45 m south of ours: about 0.3 m clear at rest, inside the stop margin. Slewing
   // positive at swing 180 deg carries our load south, toward it; negative, away.
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = Eigen::Vector3d(-18.1 - 18.38, -2.45, 7.0 - 5.38);
-  world.set_dynamic_pose(0, pose);
+  park_crane2(world, 2.45);
   StopCheck check(world, nullptr, StopCheckConfig{});
   const StopCheckResult rest = check.check(state(180, 0));
   REQUIRE(rest.nearest.with == Contact::With::Dynamic);

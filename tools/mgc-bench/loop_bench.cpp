@@ -245,6 +245,18 @@ ComputeResult measure_compute(const planning::Scenario& scenario, int cycles, st
   return r;
 }
 
+//! A run's operator: the scenario's goal requested once, in HOLD.
+auto goal_once(firmware::Controller& controller, bool& requested) {
+  return [&controller, &requested](std::int64_t /*t_us*/) {
+    firmware::ControllerCommands c;
+    if (!requested && controller.supervisor().state() == SupervisorState::Hold) {
+      c.goal_request = true;
+      requested = true;
+    }
+    return c;
+  };
+}
+
 // --- 2. Reaction time -------------------------------------------------------------------------
 
 struct Reaction {
@@ -277,14 +289,7 @@ Reaction measure_reaction(const planning::Scenario& scenario, std::int64_t cycle
   bool requested = false;
   rig.run(
       kSimZeroUs + static_cast<std::int64_t>(kReactionLimitS * 1e6),
-      [&](std::int64_t /*t_us*/) {
-        firmware::ControllerCommands c;
-        if (!requested && controller.supervisor().state() == SupervisorState::Hold) {
-          c.goal_request = true;
-          requested = true;
-        }
-        return c;
-      },
+      goal_once(controller, requested),
       [&](const Cycle& c, const hal::SensorSnapshot& s, const firmware::ControllerOutput& out) {
         if (!out.supervisor.transitioned) return true;
         if (out.supervisor.reason == TransitionReason::GoalReached) {
@@ -410,14 +415,7 @@ SweepRun measure_sweep_run(const planning::Scenario& scenario, double offset_s, 
   const std::int64_t wall0 = now_ns();
   rig.run(
       kSimZeroUs + static_cast<std::int64_t>(limit_s * 1e6),
-      [&](std::int64_t /*t_us*/) {
-        firmware::ControllerCommands c;
-        if (!requested && controller.supervisor().state() == SupervisorState::Hold) {
-          c.goal_request = true;
-          requested = true;
-        }
-        return c;
-      },
+      goal_once(controller, requested),
       [&](const Cycle& c, const hal::SensorSnapshot& s, const firmware::ControllerOutput& out) {
         if (c.total_us() > r.compute_max_us) {
           r.compute_max_us = c.total_us();

@@ -98,15 +98,26 @@ int tool_index(const planning::MachineModel& model) {
   return model.key_point_index(model.kind() == planning::MachineKind::Excavator ? "bucket_tip" : "hook");
 }
 
+//! The tool point at a configuration, through one reused set of kinematics.
+class ToolPoint {
+ public:
+  explicit ToolPoint(const planning::MachineModel& model) : model_(model), tool_(static_cast<std::size_t>(tool_index(model))) {}
+  Eigen::Vector3d operator()(const JointVector& q) {
+    model_.forward_kinematics(q, k_);
+    return k_.points[tool_];
+  }
+
+ private:
+  const planning::MachineModel& model_;
+  std::size_t tool_;
+  planning::Kinematics k_;
+};
+
 Scene scene_of(const SvgInput& in) {
   const planning::MachineModel& model = *in.model;
   const planning::Scenario& scenario = *in.scenario;
-  const int tool = tool_index(model);
+  ToolPoint tool_point(model);
   planning::Kinematics k;
-  const auto tool_point = [&](const JointVector& q) {
-    model.forward_kinematics(q, k);
-    return k.points[static_cast<std::size_t>(tool)];
-  };
 
   Scene scene;
   for (const auto& o : scenario.obstacles) scene.obstacles.push_back(shape_corners(o.shape, Eigen::Isometry3d::Identity()));
@@ -365,12 +376,7 @@ SvgLayout svg_layout(const SvgInput& in) { return layout_of(scene_of(in), in); }
 std::string render_svg(const SvgInput& in) {
   const planning::MachineModel& model = *in.model;
   const planning::Scenario& scenario = *in.scenario;
-  const int tool = tool_index(model);
-  planning::Kinematics k;
-  const auto tool_point = [&](const JointVector& q) {
-    model.forward_kinematics(q, k);
-    return k.points[static_cast<std::size_t>(tool)];
-  };
+  ToolPoint tool_point(model);
   const Scene scene = scene_of(in);
   const SvgLayout layout = layout_of(scene, in);
   const double span = layout.span_m;
