@@ -351,12 +351,14 @@ void Controller::run_safety() noexcept {
     // The command leads the hydraulics: brake from whichever is faster, the command or the estimate.
     const double v_cmd = limiter_.velocity()[k];
     const bool command_faster = std::abs(v_cmd) > std::abs(velocity_[k]);
-    // From the machine's own acceleration: the rate limiter ramps the command without a jerk limit
-    // and brakes it at once when told to stop, so its acceleration while catching up with the
-    // setpoint is no state the braking must first undo. The estimate is a second difference of
-    // encoder counts: within the joint's limit it is plausible, beyond it noise.
+    // The rate limiter ramps the command without a jerk limit and brakes it at once when told to
+    // stop: its acceleration while catching up with the setpoint is no state the braking must
+    // first undo (taken as 0); its braking is. The estimated acceleration is a second difference
+    // of encoder counts: within the joint's limit it is plausible, beyond it noise.
     const double a_max = model_->joints()[k].max_acceleration;
-    state.joints[k] = {q_wrapped_[j], command_faster ? v_cmd : velocity_[k], std::clamp(acceleration_[k], -a_max, a_max)};
+    const double a_cmd = limiter_.acceleration()[k];
+    const double a = command_faster ? (a_cmd * v_cmd > 0.0 ? 0.0 : a_cmd) : std::clamp(acceleration_[k], -a_max, a_max);
+    state.joints[k] = {q_wrapped_[j], command_faster ? v_cmd : velocity_[k], a};
   }
   // Following an escape, with every obstacle settled: only a motion that comes nearer is stopped,
   // since a stop cannot take the machine away from an obstacle that stands within the margin.
