@@ -471,7 +471,7 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
         retreat_searching_ = true;
         planner_status_ = PlannerStatus::Running;
       } else {
-        ++stats_.retreats_refused;
+        ++stats_.retreats_in_contact;
       }
     }
   }

@@ -328,6 +328,10 @@ int main(int argc, char** argv) {
                 "%d alerts, %d commands refused\n",
                 guidance::to_string(controller.supervisor().state()), guidance::to_string(controller.supervisor().reason()),
                 st.replans, st.escapes, st.retreats, st.safety_stops, st.min_clearance_m, alerts_raised, st.commands_rejected);
+    if (st.retreats_refused > 0 || st.retreats_in_contact > 0) {
+      std::printf("mgc: retreats: %d found no way out, %d not searched (the machine in contact)\n", st.retreats_refused,
+                  st.retreats_in_contact);
+    }
     if (st.paths_shortened > 0) std::printf("mgc: paths: %d repaired or escape paths shortened by %d waypoints\n", st.paths_shortened, st.waypoints_removed);
     if (controller.has_envelope()) {
       std::printf("mgc: envelope: least distance of a monitored point to a limit while moving %.2f m, motions slowed toward a "

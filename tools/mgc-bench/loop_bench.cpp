@@ -771,13 +771,13 @@ int run_loop_suite(const LoopBenchOptions& options) {
                 "supervisor's retries included. Least true clearance: the true crane to the true site and crane 2 in a world without "
                 "dilation, every 50 ms of simulated time. Compute max: the run's slowest Hal::read + Controller::step + Hal::write "
                 "(steady clock), with the most thread CPU time a cycle of the run took beside it.\n\n"
-                "| offset s | outcome | lift s | safety stops | repairs | escapes | retreats found / refused | retreat cycles | "
+                "| offset s | outcome | lift s | safety stops | repairs | escapes | retreats found / no way out / in contact | retreat cycles | "
                 "paths shortened / waypoints removed | least true clearance m | to crane 2 m | compute max µs | thread CPU max µs |\n"
                 "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                 options.sweep_first_s, options.sweep_first_s + options.sweep_step_s, offsets.empty() ? 0.0 : offsets.back(), offsets.size(),
                 options.sweep_limit_s, scenario.planner.dilation_m);
       sweep_csv = "offset_s,outcome,goal_reached,held_in_contact,state,reason,retry_pending,end_s,lift_s,safety_stops,replans,escapes,"
-                  "retreats,retreats_refused,retreat_cycles,paths_shortened,waypoints_removed,trajectory_errors,min_true_clearance_m,"
+                  "retreats,retreats_refused,retreats_in_contact,retreat_cycles,paths_shortened,waypoints_removed,trajectory_errors,min_true_clearance_m,"
                   "min_true_dynamic_m,end_true_dynamic_m,blocked_true_dynamic_m,compute_max_us,compute_max_at_s,compute_max_state,cpu_max_us,cpu_max_at_s,cpu_max_state,wall_s,transitions\n";
       std::vector<double> lift_times;
       int held = 0;
@@ -789,14 +789,14 @@ int run_loop_suite(const LoopBenchOptions& options) {
         if (r.goal_reached) lift_times.push_back(r.lift_s);
         if (r.held_in_contact) ++held;
         const std::string outcome = sweep_outcome(r);
-        md += fmt("| %.0f | %s | %s | %d | %d | %d | %d / %d | %llu | %d / %d | %.2f | %.2f | %.0f | %.0f |\n", r.offset_s, outcome.c_str(),
+        md += fmt("| %.0f | %s | %s | %d | %d | %d | %d / %d / %d | %llu | %d / %d | %.2f | %.2f | %.0f | %.0f |\n", r.offset_s, outcome.c_str(),
                   r.goal_reached ? fmt("%.1f", r.lift_s).c_str() : "–", st.safety_stops, st.replans, st.escapes, st.retreats,
-                  st.retreats_refused, static_cast<unsigned long long>(st.retreat_cycles), st.paths_shortened, st.waypoints_removed,
-                  r.min_true_clearance_m, r.min_true_dynamic_m, r.compute_max_us, r.cpu_max_us);
-        sweep_csv += fmt("%.3f,\"%s\",%d,%d,%s,%s,%d,%.2f,%.2f,%d,%d,%d,%d,%d,%llu,%d,%d,%llu,%.4f,%.4f,%.4f,%.4f,%.1f,%.2f,%s,%.1f,%.2f,%s,%.2f,\"%s\"\n", r.offset_s,
+                  st.retreats_refused, st.retreats_in_contact, static_cast<unsigned long long>(st.retreat_cycles), st.paths_shortened,
+                  st.waypoints_removed, r.min_true_clearance_m, r.min_true_dynamic_m, r.compute_max_us, r.cpu_max_us);
+        sweep_csv += fmt("%.3f,\"%s\",%d,%d,%s,%s,%d,%.2f,%.2f,%d,%d,%d,%d,%d,%d,%llu,%d,%d,%llu,%.4f,%.4f,%.4f,%.4f,%.1f,%.2f,%s,%.1f,%.2f,%s,%.2f,\"%s\"\n", r.offset_s,
                          outcome.c_str(), r.goal_reached ? 1 : 0, r.held_in_contact ? 1 : 0, guidance::to_string(r.state),
                          guidance::to_string(r.reason), r.retry_pending ? 1 : 0, r.end_s, r.lift_s, st.safety_stops, st.replans,
-                         st.escapes, st.retreats, st.retreats_refused, static_cast<unsigned long long>(st.retreat_cycles),
+                         st.escapes, st.retreats, st.retreats_refused, st.retreats_in_contact, static_cast<unsigned long long>(st.retreat_cycles),
                          st.paths_shortened, st.waypoints_removed, static_cast<unsigned long long>(st.trajectory_errors),
                          r.min_true_clearance_m, r.min_true_dynamic_m, r.end_true_dynamic_m, r.blocked_true_dynamic_m, r.compute_max_us, r.compute_max_at_s,
                          guidance::to_string(r.compute_max_state), r.cpu_max_us, r.cpu_max_at_s, guidance::to_string(r.cpu_max_state), r.wall_s, r.transitions.c_str());

@@ -125,7 +125,8 @@ struct ControllerStats {
   int replans = 0;           //!< repairs started after a safety stop
   int escapes = 0;           //!< repairs planned anew because an obstacle stopped within the planning margin
   int retreats = 0;          //!< retreats found where not even the escape planner accepted the start
-  int retreats_refused = 0;  //!< retreat searches that found no way out, or started in contact
+  int retreats_refused = 0;  //!< retreat searches that found no single-joint way out
+  int retreats_in_contact = 0;  //!< retreats not searched: the machine touched an obstacle (the stop check's dilated bodies)
   int paths_shortened = 0;   //!< repaired or escape paths the shortener took waypoints or corners from
   int waypoints_removed = 0; //!< waypoints the shortener removed over all paths (corners it added subtract)
   std::uint64_t retreat_cycles = 0;  //!< moving cycles the retreat floor let through the stop margin
