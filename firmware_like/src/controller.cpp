@@ -97,6 +97,7 @@ enum AlertKind : std::size_t {
   kAlertOperator,
   kAlertTracking,
   kAlertEnvelope,
+  kAlertApproach,
 };
 
 std::unique_ptr<guidance::Envelope> make_envelope(const planning::Scenario& scenario, const planning::MachineModel& model) {
@@ -174,6 +175,9 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
   if (config.plan_iterations_per_cycle < 1 || config.escape_iterations_per_cycle < 1) {
     throw std::invalid_argument("controller: plan_iterations_per_cycle and escape_iterations_per_cycle must be >= 1");
+  }
+  if (!(config.approach_step_s > 0.0) || !(config.approach_horizon_s >= config.approach_step_s)) {
+    throw std::invalid_argument("controller: approach_step_s must be > 0 and approach_horizon_s at least approach_step_s");
   }
   if (config.retreat_configs_per_cycle < 1) throw std::invalid_argument("controller: retreat_configs_per_cycle must be >= 1");
   if (config.shorten_chunks_per_cycle < 1) throw std::invalid_argument("controller: shorten_chunks_per_cycle must be >= 1");
@@ -323,6 +327,8 @@ void Controller::track_obstacles(const hal::SensorSnapshot& s) noexcept {
           velocity /= stt;
           yaw_rate /= stt;
           h.speed_m_s = velocity.norm() + std::abs(yaw_rate) * h.radius_m + config_.obstacle_speed_floor_m_s;
+          h.velocity_m_s = velocity;
+          h.yaw_rate_rad_s = yaw_rate;
           h.window_full = true;
         }
       }
@@ -378,6 +384,48 @@ void Controller::run_safety() noexcept {
     envelope_result_.nearest = envelope_->nearest(q_wrapped_);
     envelope_result_.violated = envelope_result_.nearest.limit != guidance::EnvelopeLimit::None && envelope_result_.nearest.distance_m < 0.0;
   }
+}
+
+void Controller::predict_approach() noexcept {
+  bool any_moving = false;
+  for (const PoseHistory& h : histories_) any_moving = any_moving || obstacle_moving(h);
+  if (!at_rest_ || !joints_valid_ || !any_moving) {
+    approach_step_ = 0;
+    approach_s_ = std::numeric_limits<double>::infinity();
+    approach_obstacle_ = -1;
+    return;
+  }
+  // Scan the horizon one predicted pose a cycle: the moving obstacles carried forward at their
+  // tracked velocity and slew rate (a slewing crane turns about its mast, its frame's origin),
+  // the machine where it stands. The tracked poses are put back at once for the next stop check.
+  const double tau_s = ++approach_step_ * config_.approach_step_s;
+  std::size_t t = 0;
+  for (std::size_t d = 0; d < scenario_.dynamic_obstacles.size(); ++d) {
+    if (scenario_.dynamic_obstacles[d].tags.empty()) continue;
+    const PoseHistory& h = histories_[t];
+    const ObstacleTracker& tracker = trackers_[t++];
+    if (!obstacle_moving(h)) continue;
+    Eigen::Isometry3d predicted = Eigen::Isometry3d::Identity();
+    predicted.translate(tracker.position_m() + h.velocity_m_s * tau_s);
+    predicted.rotate(Eigen::AngleAxisd(tracker.yaw_rad() + h.yaw_rate_rad_s * tau_s, Eigen::Vector3d::UnitZ()));
+    safety_world_->set_dynamic_pose(static_cast<int>(d), predicted);
+  }
+  const double margin_m = config_.stop_check.stop_margin_m;
+  const planning::Clearance near =
+      safety_world_->nearest_below(q_wrapped_, planning::CollisionWorld::Bodies::All, 0.0, margin_m).dynamic_obstacle;
+  t = 0;
+  for (std::size_t d = 0; d < scenario_.dynamic_obstacles.size(); ++d) {
+    if (scenario_.dynamic_obstacles[d].tags.empty()) continue;
+    const ObstacleTracker& tracker = trackers_[t];
+    if (obstacle_moving(histories_[t++])) safety_world_->set_dynamic_pose(static_cast<int>(d), tracker.pose());
+  }
+  const bool within = near.with == planning::Contact::With::Dynamic && near.distance_m < margin_m;
+  // The earliest pose within the margin ends the scan; a scan that finds none clears the warning.
+  if (!within && tau_s < config_.approach_horizon_s) return;
+  if (within && !std::isfinite(approach_s_)) ++stats_.approach_warnings;
+  approach_s_ = within ? tau_s : std::numeric_limits<double>::infinity();
+  approach_obstacle_ = within ? near.other : -1;
+  approach_step_ = 0;
 }
 
 void Controller::update_settled() noexcept {
@@ -597,7 +645,10 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
 
   estimate(s, dt_s);
   track_obstacles(s);
-  if (have_reading_) run_safety();
+  if (have_reading_) {
+    run_safety();
+    predict_approach();
+  }
 
   guidance::SupervisorInputs in;
   in.now_us = now_us_;
@@ -872,6 +923,8 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
         kNaN, kNaN, -1);
   raise(kAlertOperator, now_us_ < rejected_until_us_, A::SEVERITY_INFO, A::SOURCE_OPERATOR, A::CLEAR_WHEN_CONDITION_CLEARS,
         A::UNIT_NONE, kNaN, kNaN, -1);
+  raise(kAlertApproach, std::isfinite(approach_s_), A::SEVERITY_WARN, A::SOURCE_COLLISION, A::CLEAR_WHEN_CONDITION_CLEARS,
+        A::UNIT_SECOND, approach_s_, config_.approach_horizon_s, approach_obstacle_);
   bool tracks_lost = false;
   for (const ObstacleTracker& t : trackers_) tracks_lost = tracks_lost || !t.valid(now_us_);
   raise(kAlertTracking, tracks_lost && supervisor_.state() != SupervisorState::Init, A::SEVERITY_WARN, A::SOURCE_SENSING,

@@ -31,6 +31,11 @@ const char* source_name(std::int8_t s) {
   static const char* names[] = {"unknown", "collision", "envelope", "load chart", "sensing", "watchdog", "planner", "operator"};
   return s >= 0 && s <= 7 ? names[s] : "unknown";
 }
+//! The unit after a value (alert_t.UNIT_*); nothing for none or unknown.
+const char* unit_suffix(std::int8_t u) {
+  static const char* names[] = {"", "", " m", " rad", " %", " s", " m/s", " rad/s"};
+  return u >= 0 && u <= 7 ? names[u] : "";
+}
 const char* state_name(std::int8_t s) {
   static const char* names[] = {"UNKNOWN", "INIT", "HOLD", "PLANNING", "EXECUTING", "STOPPING", "REPLANNING", "FAULT", "ESTOP"};
   return s >= 0 && s <= 8 ? names[s] : "UNKNOWN";
@@ -86,7 +91,11 @@ class Watcher {
     print_time();
     std::printf("alert %d %s: %s %s", a->alert_id, a->active ? "raised" : "cleared", severity_name(a->severity),
                 source_name(a->source));
-    if (a->active && std::isfinite(a->value)) std::printf(", value %.2f (limit %.2f)", a->value, a->limit);
+    if (a->active && a->source == mgc::alert_t::SOURCE_COLLISION && a->value_unit == mgc::alert_t::UNIT_SECOND) {
+      std::printf(", obstacle %d predicted within the stop margin in %.1f s", a->index, a->value);
+    } else if (a->active && std::isfinite(a->value)) {
+      std::printf(", value %.2f%s (limit %.2f%s)", a->value, unit_suffix(a->value_unit), a->limit, unit_suffix(a->value_unit));
+    }
     std::printf("\n");
   }
   void on_status(const lcm::ReceiveBuffer*, const std::string&, const mgc::command_status_t* s) {

@@ -48,6 +48,15 @@ struct Run {
   //! least since then. [m]
   double dynamic_at_escape_m = std::numeric_limits<double>::quiet_NaN();
   double dynamic_after_escape_m = std::numeric_limits<double>::infinity();
+  //! When the approach warning first rose, the least time it predicted, and when the true crane
+  //! first touched crane 2 (true clearance under 1 mm). [µs on the rig's clock | s]
+  std::int64_t approach_us = -1;
+  double least_approach_s = std::numeric_limits<double>::infinity();
+  std::int64_t contact_us = -1;
+  //! Cycles whose approach prediction the snapshot carried as a collision warning in seconds, and
+  //! cycles with a prediction it did not carry so.
+  int approach_alert_cycles = 0;
+  int approach_alert_missing = 0;
 
   Run(const char* scenario, sim::SimConfig config, const std::string& bus)
       : rig(scenario, std::move(config), bus), controller(rig.scenario, firmware::ControllerConfig{}) {
@@ -80,6 +89,18 @@ struct Run {
                                  : std::string()));
     }
     if (out.supervisor.reason == guidance::TransitionReason::GoalReached && done_us < 0) done_us = s.t_us;
+    if (std::isfinite(controller.approach_s())) {
+      if (approach_us < 0) approach_us = s.t_us;
+      least_approach_s = std::min(least_approach_s, controller.approach_s());
+      bool carried = false;
+      const firmware::GuidanceSnapshot& snap = controller.snapshot();
+      for (int a = 0; a < snap.num_alerts; ++a) {
+        const firmware::SnapshotAlert& alert = snap.alerts[static_cast<std::size_t>(a)];
+        carried = carried || (alert.source == mgc::alert_t::SOURCE_COLLISION && alert.severity == mgc::alert_t::SEVERITY_WARN &&
+                              alert.value_unit == mgc::alert_t::UNIT_SECOND && alert.value == controller.approach_s());
+      }
+      ++(carried ? approach_alert_cycles : approach_alert_missing);
+    }
     for (const char* words = controller.snapshot().instruction_text.data(); (words = std::strstr(words, "swing ")) != nullptr;) {
       words += 6;
       double deg = 0.0;
@@ -99,6 +120,7 @@ struct Run {
         const double dynamic_m =
             truth_world->clearance(q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
         min_true_dynamic_m = std::min(min_true_dynamic_m, dynamic_m);
+        if (dynamic_m < 1e-3 && contact_us < 0) contact_us = s.t_us;
         if (controller.stats().safety_stops > 0 && controller.supervisor().state() == guidance::SupervisorState::Executing) {
           if (std::isnan(dynamic_at_escape_m)) dynamic_at_escape_m = dynamic_m;
           dynamic_after_escape_m = std::min(dynamic_after_escape_m, dynamic_m);
@@ -326,7 +348,17 @@ TEST_CASE("the controller does not move a crane that crane 2 has run into", "[fi
   const firmware::ControllerStats& st = run.controller.stats();
   INFO(run.log());
   CAPTURE(st.safety_stops, st.replans, st.escapes, st.retreats, st.retreats_refused, st.retreats_in_contact);
+  CAPTURE(run.approach_us, run.contact_us, run.least_approach_s, st.approach_warnings);
   REQUIRE(st.safety_stops == 1);
+  // The operator was warned of crane 2 coming at the stopped crane well before it arrived.
+  REQUIRE(run.contact_us > 0);
+  REQUIRE(run.approach_us > 0);
+  CHECK(run.approach_us <= run.contact_us - 2'000'000);
+  CHECK(st.approach_warnings >= 1);
+  CHECK(run.approach_alert_cycles > 0);
+  CHECK(run.approach_alert_missing == 0);
+  // Parked against our crane, crane 2 no longer moves: nothing is predicted any more.
+  CHECK(std::isinf(run.controller.approach_s()));
   CHECK(st.retreats == 0);
   CHECK(st.retreats_in_contact >= 1);
   CHECK(st.retreats_refused == 0);

@@ -391,6 +391,11 @@ struct SweepRun {
   double end_true_dynamic_m = std::numeric_limits<double>::infinity();    //!< to crane 2 at the last sample [m]
   //! To crane 2 in the cycle of the last HOLD for StartBlocked (NaN: none) [m]
   double blocked_true_dynamic_m = std::numeric_limits<double>::quiet_NaN();
+  //! When the approach warning first rose and what it predicted then; when the true crane first
+  //! touched crane 2 (true clearance under 1 mm). NaN: never. [s]
+  double approach_at_s = std::numeric_limits<double>::quiet_NaN();
+  double approach_said_s = std::numeric_limits<double>::quiet_NaN();
+  double contact_at_s = std::numeric_limits<double>::quiet_NaN();
   double compute_max_us = 0.0;       //!< the slowest cycle's read -> write (steady clock) [µs]
   double compute_max_at_s = 0.0;     //!< its simulation time [s]
   SupervisorState compute_max_state = SupervisorState::Init;  //!< the state its step ended in
@@ -461,6 +466,11 @@ SweepRun measure_sweep_run(const planning::Scenario& scenario, double offset_s, 
           r.min_true_clearance_m = std::min(r.min_true_clearance_m, all_m);
           r.end_true_dynamic_m = dynamic_m;
           r.min_true_dynamic_m = std::min(r.min_true_dynamic_m, dynamic_m);
+          if (dynamic_m < 1e-3 && std::isnan(r.contact_at_s)) r.contact_at_s = sim_s(c.t_us);
+        }
+        if (std::isfinite(controller.approach_s()) && std::isnan(r.approach_at_s)) {
+          r.approach_at_s = sim_s(c.t_us);
+          r.approach_said_s = controller.approach_s();
         }
         if (!out.supervisor.transitioned) return true;
         r.transitions += fmt("%s%.2f s %s (%s)", r.transitions.empty() ? "" : "; ", sim_s(c.t_us), guidance::to_string(out.supervisor.state),
@@ -769,16 +779,19 @@ int run_loop_suite(const LoopBenchOptions& options) {
                 "true crane within the scenario's dilation (%.2f m) of the true crane 2 when the repair was last refused. Repairs "
                 "count every repair started, the "
                 "supervisor's retries included. Least true clearance: the true crane to the true site and crane 2 in a world without "
-                "dilation, every 50 ms of simulated time. Compute max: the run's slowest Hal::read + Controller::step + Hal::write "
+                "dilation, every 50 ms of simulated time. Approach warnings: how often the controller warned of crane 2 predicted within the "
+                "stop margin of the crane at rest (docs/controller.md), when it first did and in how many seconds it predicted it then; "
+                "contact: when the true crane first came within 1 mm of crane 2. Compute max: the run's slowest Hal::read + Controller::step + Hal::write "
                 "(steady clock), with the most thread CPU time a cycle of the run took beside it.\n\n"
                 "| offset s | outcome | lift s | safety stops | repairs | escapes | retreats found / no way out / in contact | retreat cycles | "
-                "paths shortened / waypoints removed | least true clearance m | to crane 2 m | compute max µs | thread CPU max µs |\n"
-                "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+                "paths shortened / waypoints removed | least true clearance m | to crane 2 m | approach warnings: count, first at s (in s) | "
+                "contact at s | compute max µs | thread CPU max µs |\n"
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                 options.sweep_first_s, options.sweep_first_s + options.sweep_step_s, offsets.empty() ? 0.0 : offsets.back(), offsets.size(),
                 options.sweep_limit_s, scenario.planner.dilation_m);
       sweep_csv = "offset_s,outcome,goal_reached,held_in_contact,state,reason,retry_pending,end_s,lift_s,safety_stops,replans,escapes,"
                   "retreats,retreats_refused,retreats_in_contact,retreat_cycles,paths_shortened,waypoints_removed,trajectory_errors,min_true_clearance_m,"
-                  "min_true_dynamic_m,end_true_dynamic_m,blocked_true_dynamic_m,compute_max_us,compute_max_at_s,compute_max_state,cpu_max_us,cpu_max_at_s,cpu_max_state,wall_s,transitions\n";
+                  "min_true_dynamic_m,end_true_dynamic_m,blocked_true_dynamic_m,approach_warnings,approach_at_s,approach_said_s,contact_at_s,compute_max_us,compute_max_at_s,compute_max_state,cpu_max_us,cpu_max_at_s,cpu_max_state,wall_s,transitions\n";
       std::vector<double> lift_times;
       int held = 0;
       const std::int64_t sweep_wall0 = now_ns();
@@ -789,16 +802,21 @@ int run_loop_suite(const LoopBenchOptions& options) {
         if (r.goal_reached) lift_times.push_back(r.lift_s);
         if (r.held_in_contact) ++held;
         const std::string outcome = sweep_outcome(r);
-        md += fmt("| %.0f | %s | %s | %d | %d | %d | %d / %d / %d | %llu | %d / %d | %.2f | %.2f | %.0f | %.0f |\n", r.offset_s, outcome.c_str(),
+        const std::string approach = st.approach_warnings == 0 ? std::string("0")
+                                                               : fmt("%d, %.2f (%.1f)", st.approach_warnings, r.approach_at_s, r.approach_said_s);
+        const std::string contact = std::isnan(r.contact_at_s) ? std::string("–") : fmt("%.2f", r.contact_at_s);
+        md += fmt("| %.0f | %s | %s | %d | %d | %d | %d / %d / %d | %llu | %d / %d | %.2f | %.2f | %s | %s | %.0f | %.0f |\n", r.offset_s, outcome.c_str(),
                   r.goal_reached ? fmt("%.1f", r.lift_s).c_str() : "–", st.safety_stops, st.replans, st.escapes, st.retreats,
                   st.retreats_refused, st.retreats_in_contact, static_cast<unsigned long long>(st.retreat_cycles), st.paths_shortened,
-                  st.waypoints_removed, r.min_true_clearance_m, r.min_true_dynamic_m, r.compute_max_us, r.cpu_max_us);
-        sweep_csv += fmt("%.3f,\"%s\",%d,%d,%s,%s,%d,%.2f,%.2f,%d,%d,%d,%d,%d,%d,%llu,%d,%d,%llu,%.4f,%.4f,%.4f,%.4f,%.1f,%.2f,%s,%.1f,%.2f,%s,%.2f,\"%s\"\n", r.offset_s,
+                  st.waypoints_removed, r.min_true_clearance_m, r.min_true_dynamic_m, approach.c_str(), contact.c_str(), r.compute_max_us,
+                  r.cpu_max_us);
+        sweep_csv += fmt("%.3f,\"%s\",%d,%d,%s,%s,%d,%.2f,%.2f,%d,%d,%d,%d,%d,%d,%llu,%d,%d,%llu,%.4f,%.4f,%.4f,%.4f,%d,%.2f,%.2f,%.2f,%.1f,%.2f,%s,%.1f,%.2f,%s,%.2f,\"%s\"\n", r.offset_s,
                          outcome.c_str(), r.goal_reached ? 1 : 0, r.held_in_contact ? 1 : 0, guidance::to_string(r.state),
                          guidance::to_string(r.reason), r.retry_pending ? 1 : 0, r.end_s, r.lift_s, st.safety_stops, st.replans,
                          st.escapes, st.retreats, st.retreats_refused, st.retreats_in_contact, static_cast<unsigned long long>(st.retreat_cycles),
                          st.paths_shortened, st.waypoints_removed, static_cast<unsigned long long>(st.trajectory_errors),
-                         r.min_true_clearance_m, r.min_true_dynamic_m, r.end_true_dynamic_m, r.blocked_true_dynamic_m, r.compute_max_us, r.compute_max_at_s,
+                         r.min_true_clearance_m, r.min_true_dynamic_m, r.end_true_dynamic_m, r.blocked_true_dynamic_m, st.approach_warnings,
+                         r.approach_at_s, r.approach_said_s, r.contact_at_s, r.compute_max_us, r.compute_max_at_s,
                          guidance::to_string(r.compute_max_state), r.cpu_max_us, r.cpu_max_at_s, guidance::to_string(r.cpu_max_state), r.wall_s, r.transitions.c_str());
       }
       md += fmt("\n%zu of %zu offsets reached the goal (median lift %s), %d held in contact, %zu other; %.1f s wall.\n",

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <span>
 #include <string>
@@ -91,6 +92,13 @@ struct ControllerConfig {
   //! overshoots is at rest for an instant where it turns back, and must not end the lift there. [rad]
   double goal_tolerance_rad = 0.2 * 3.14159265358979323846 / 180.0;
   double goal_tolerance_m = 0.02;  //!< the same for a prismatic joint [m]
+  //! A machine at rest is warned of a moving obstacle that would come within the stop margin of it
+  //! this soon: the obstacle's tracked velocity and slew rate carried forward (docs/controller.md,
+  //! "Approach warning"). The controller never moves the machine out of the way on its own. [s]
+  double approach_horizon_s = 8.0;
+  //! Predicted poses this far apart; one is measured a cycle, so a scan of the horizon takes
+  //! approach_horizon_s / approach_step_s cycles. [s]
+  double approach_step_s = 0.5;
   //! After the setpoint has finished, how long the machine may take to come within the goal
   //! tolerance before the path counts as complete anyway (stats().settle_timeouts). [µs]
   std::int64_t settle_timeout_us = 5'000'000;
@@ -141,6 +149,9 @@ struct ControllerStats {
   std::uint64_t estimate_invalid_cycles = 0;  //!< cycles without a valid position of every joint
   std::uint64_t trajectory_errors = 0;  //!< cycles whose setpoint generator refused its input
   int settle_timeouts = 0;  //!< paths completed without the machine within the goal tolerance of the last waypoint
+  //! Times a moving obstacle was predicted to come within the stop margin of the machine at rest
+  //! (the approach warning raised; each rise counts once).
+  int approach_warnings = 0;
 };
 
 class Controller {
@@ -171,6 +182,9 @@ class Controller {
   [[nodiscard]] int num_joints() const noexcept { return n_; }
   [[nodiscard]] const ObstacleTracker& tracker(std::size_t i) const noexcept { return trackers_[i]; }
   [[nodiscard]] std::size_t num_trackers() const noexcept { return trackers_.size(); }
+  //! In how many seconds a moving obstacle is predicted to come within the stop margin of the machine
+  //! at rest (the approach warning); +infinity when none is within approach_horizon_s. [s]
+  [[nodiscard]] double approach_s() const noexcept { return approach_s_; }
   //! The speed the stop check assumes for the dynamic obstacles this cycle. [m/s]
   [[nodiscard]] double obstacle_speed_m_s() const noexcept { return obstacle_speed_m_s_; }
   //! The follower's path has been completed: the setpoint has finished the last segment and the
@@ -181,6 +195,8 @@ class Controller {
   void estimate(const hal::SensorSnapshot& s, double dt_s) noexcept;
   void track_obstacles(const hal::SensorSnapshot& s) noexcept;
   void run_safety() noexcept;
+  //! One predicted pose of the approach warning's scan (machine at rest only).
+  void predict_approach() noexcept;
   void handle_plan_request(const guidance::SupervisorOutput& out) noexcept;
   //! Every tracked obstacle's speed is measured and near its floor.
   [[nodiscard]] bool obstacles_settled() const noexcept;
@@ -238,10 +254,19 @@ class Controller {
     std::size_t head = 0;        //!< next slot to write
     double radius_m = 0.0;       //!< farthest point of the obstacle from its frame origin
     double speed_m_s = 0.0;      //!< bound on any of its points' speed over the window, floor included
+    Eigen::Vector3d velocity_m_s = Eigen::Vector3d::Zero();  //!< of its frame origin over the window [m/s]
+    double yaw_rate_rad_s = 0.0;  //!< about its frame's z over the window [rad/s]
     bool window_full = false;
   };
   std::vector<PoseHistory> histories_;  //!< one per tracker
   double obstacle_speed_m_s_ = 0.0;     //!< what the stop check assumes this cycle
+  //! Obstacles moving faster than their floor plus settled_speed_m_s, by tracker index.
+  [[nodiscard]] bool obstacle_moving(const PoseHistory& h) const noexcept {
+    return h.window_full && h.speed_m_s > config_.obstacle_speed_floor_m_s + config_.settled_speed_m_s;
+  }
+  int approach_step_ = 0;          //!< predicted poses measured in the current scan
+  double approach_s_ = std::numeric_limits<double>::infinity();  //!< the last scan's finding [s]
+  int approach_obstacle_ = -1;     //!< which dynamic obstacle it names
   //! The scenario's working envelope (null: none): the limiter, and the stop check's sweep.
   std::unique_ptr<guidance::Envelope> envelope_;
   guidance::EnvelopeResult envelope_result_{};
@@ -288,7 +313,8 @@ class Controller {
   std::uint32_t plan_id_ = 0;
 
   // Alerts: one slot per kind, an id from raise to clear.
-  static constexpr std::size_t kAlertKinds = 8;
+  static constexpr std::size_t kAlertKinds = 9;
+  static_assert(kAlertKinds <= static_cast<std::size_t>(kSnapshotMaxAlerts), "every alert kind fits a snapshot");
   std::array<SnapshotAlert, kAlertKinds> alerts_{};
   std::array<bool, kAlertKinds> alert_active_{};
   std::array<std::int64_t, kAlertKinds> alert_seen_us_{};  //!< when each condition was last true [µs]
