@@ -328,6 +328,10 @@ int main(int argc, char** argv) {
                 "%d alerts, %d commands refused\n",
                 guidance::to_string(controller.supervisor().state()), guidance::to_string(controller.supervisor().reason()),
                 st.replans, st.escapes, st.retreats, st.safety_stops, st.min_clearance_m, alerts_raised, st.commands_rejected);
+    if (st.approach_warnings > 0) {
+      std::printf("mgc: approach warnings: %d (a moving obstacle predicted within the stop margin of the machine at rest)\n",
+                  st.approach_warnings);
+    }
     if (st.retreats_refused > 0 || st.retreats_in_contact > 0) {
       std::printf("mgc: retreats: %d found no way out, %d not searched (the machine in contact)\n", st.retreats_refused,
                   st.retreats_in_contact);
