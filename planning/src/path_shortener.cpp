@@ -3,12 +3,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numbers>
 
 namespace mgc::planning {
 
-PathShortener::PathShortener(int dof, std::size_t capacity, double chunk_m)
-    : chunk_m_(std::max(chunk_m, 1e-3)), capacity_(std::max<std::size_t>(capacity, 2)) {
+PathShortener::PathShortener(int dof, std::size_t capacity, double chunk_m, int max_orders)
+    : chunk_m_(std::max(chunk_m, 1e-3)), capacity_(std::max<std::size_t>(capacity, 2)), max_orders_(std::max(max_orders, 1)) {
   const JointVector zero = JointVector::Zero(dof);
   step_ = zero;
   nodes_.assign(capacity_, zero);
@@ -48,7 +49,7 @@ PathShortener::Status PathShortener::begin(CollisionWorld& world, const JointVec
   return status_ = shorten && size_ >= 2 ? Status::Running : Status::Done;
 }
 
-void PathShortener::plan_stairs(bool largest_first) noexcept {
+void PathShortener::plan_stairs() noexcept {
   const int n = world_->model().dof();
   const JointVector& from = nodes_[i_];
   const JointVector& to = nodes_[k_];
@@ -58,31 +59,56 @@ void PathShortener::plan_stairs(bool largest_first) noexcept {
     for (std::size_t e = i_; e < k_; ++e) {
       for (int j = 0; j < n; ++j) {
         if (delta(j, nodes_[e], nodes_[e + 1]) == 0.0 || delta(j, from, to) == 0.0) continue;
-        if (std::find(order_.begin(), order_.begin() + order_count_, j) == order_.begin() + order_count_) order_[static_cast<std::size_t>(order_count_++)] = j;
+        if (std::find(base_.begin(), base_.begin() + order_count_, j) == base_.begin() + order_count_) base_[static_cast<std::size_t>(order_count_++)] = j;
       }
     }
   } else {
     for (int j = 0; j < n; ++j) {
-      if (delta(j, from, to) != 0.0) order_[static_cast<std::size_t>(order_count_++)] = j;
+      if (delta(j, from, to) != 0.0) base_[static_cast<std::size_t>(order_count_++)] = j;
     }
-    if (largest_first) {
-      // Insertion sort, stable and without the buffer std::stable_sort may allocate.
-      for (int a = 1; a < order_count_; ++a) {
-        const int j = order_[static_cast<std::size_t>(a)];
-        int b = a;
-        for (; b > 0 && std::abs(delta(order_[static_cast<std::size_t>(b - 1)], from, to)) < std::abs(delta(j, from, to)); --b) {
-          order_[static_cast<std::size_t>(b)] = order_[static_cast<std::size_t>(b - 1)];
-        }
-        order_[static_cast<std::size_t>(b)] = j;
+    // The largest move first: insertion sort, stable and without the buffer std::stable_sort may
+    // allocate.
+    for (int a = 1; a < order_count_; ++a) {
+      const int j = base_[static_cast<std::size_t>(a)];
+      int b = a;
+      for (; b > 0 && std::abs(delta(base_[static_cast<std::size_t>(b - 1)], from, to)) < std::abs(delta(j, from, to)); --b) {
+        base_[static_cast<std::size_t>(b)] = base_[static_cast<std::size_t>(b - 1)];
       }
+      base_[static_cast<std::size_t>(b)] = j;
     }
   }
+  for (int s = 0; s < order_count_; ++s) perm_[static_cast<std::size_t>(s)] = s;
+  orders_tried_ = 1;
+  build_stairs();
+}
+
+void PathShortener::build_stairs() noexcept {
+  const JointVector& to = nodes_[k_];
   for (int s = 0; s < order_count_; ++s) {
     const auto k = static_cast<std::size_t>(s);
-    stairs_[k] = s == 0 ? from : stairs_[k - 1];
-    const int j = order_[k];
-    stairs_[k][j] = to[j];
+    order_[k] = base_[static_cast<std::size_t>(perm_[k])];
+    stairs_[k] = s == 0 ? nodes_[i_] : stairs_[k - 1];
+    stairs_[k][order_[k]] = to[order_[k]];
   }
+}
+
+bool PathShortener::next_order(int blocked) noexcept {
+  if (orders_tried_ >= max_orders_) return false;
+  const auto begin = perm_.begin();
+  const auto end = perm_.begin() + order_count_;
+  // Every order that begins as this one up to the blocked stair is blocked there too: the
+  // lexicographically last of them comes next, then the next permutation leaves that prefix.
+  std::sort(begin + blocked + 1, end, std::greater<>());
+  const std::array<int, 16> before = perm_;
+  if (!std::next_permutation(begin, end)) return false;
+  ++orders_tried_;
+  int first_new = 0;
+  while (first_new < order_count_ && perm_[static_cast<std::size_t>(first_new)] == before[static_cast<std::size_t>(first_new)]) ++first_new;
+  build_stairs();
+  // The stairs before the first that differs are the same and were validated.
+  stair_ = first_new;
+  at_ = first_new == 0 ? nodes_[i_] : stairs_[static_cast<std::size_t>(first_new - 1)];
+  return true;
 }
 
 bool PathShortener::next_candidate() noexcept {
@@ -91,7 +117,6 @@ bool PathShortener::next_candidate() noexcept {
       if (i_ + 2 >= size_) {
         phase_ = Phase::Stairs;
         i_ = first_;
-        tried_largest_ = false;
         continue;
       }
       if (k_ < i_ + 2) {
@@ -99,17 +124,15 @@ bool PathShortener::next_candidate() noexcept {
         k_ = size_ - 1;
         continue;
       }
-      plan_stairs(false);
+      plan_stairs();
       if (order_count_ == 0 || static_cast<std::size_t>(order_count_) < k_ - i_) return true;
       --k_;
     } else {
       if (i_ + 1 >= size_) return false;
       k_ = i_ + 1;
-      const bool largest_first = !tried_largest_;
-      plan_stairs(largest_first);
+      plan_stairs();
       if (order_count_ >= 2 && size_ + static_cast<std::size_t>(order_count_) - 1 <= capacity_) return true;
       ++i_;
-      tried_largest_ = false;
     }
   }
 }
@@ -174,13 +197,11 @@ PathShortener::Status PathShortener::step(int budget) noexcept {
     --budget;
     ++chunks_;
     if (!world_->validate_edge(at_, chunk_to_, step_).valid()) {
+      if (next_order(stair_)) continue;
       trying_ = false;
       if (phase_ == Phase::Shortcut) {
         --k_;
-      } else if (!tried_largest_) {
-        tried_largest_ = true;
       } else {
-        tried_largest_ = false;
         ++i_;
       }
       continue;
@@ -196,7 +217,6 @@ PathShortener::Status PathShortener::step(int budget) noexcept {
       k_ = size_ - 1;
     } else {
       i_ += static_cast<std::size_t>(order_count_);
-      tried_largest_ = false;
     }
   }
   return status_;

@@ -122,3 +122,33 @@ TEST_CASE("path shortener: a prefix stays as given and a multi-joint edge become
   // The larger move first, as the follower takes it (in the joints' own units): the 3 m hoist.
   CHECK(moving_joint(*site.model, out.path[1], out.path[2]) == 3);
 }
+
+TEST_CASE("path shortener: where the stretch's own order is blocked, another order of the same joints shortens it", "[unit]") {
+  io::LoadedScenario site = io::load_and_build(mgc::test::source_path(std::string("scenarios/") + kScenario).string());
+  const PlanningProblem problem = planning_problem(site.scenario, *site.model, *site.world);
+  // The thesis lift's way round the east: at the start's boom angle the slew to the east is
+  // blocked by the frame, with the boom luffed up 24 deg it is free. The path slews a little,
+  // luffs up, then slews on; its own order (slew first, then luff) cannot shorten it.
+  const JointVector& a = site.scenario.start;
+  const auto n = a.size();
+  const JointVector b = a - 5.0 * mgc::test::kDeg * JointVector::Unit(n, 0);
+  const JointVector c = b + 24.0 * mgc::test::kDeg * JointVector::Unit(n, 1);
+  const JointVector d = c - 155.0 * mgc::test::kDeg * JointVector::Unit(n, 0);
+  const std::vector<JointVector> path = {a, b, c, d};
+  for (std::size_t e = 0; e + 1 < path.size(); ++e) REQUIRE(site.world->validate_edge(path[e], path[e + 1], problem.step).valid());
+  const JointVector slew_first = a + (d[0] - a[0]) * JointVector::Unit(n, 0);
+  REQUIRE_FALSE(site.world->validate_edge(a, slew_first, problem.step).valid());
+  const JointVector luff_first = a + (d[1] - a[1]) * JointVector::Unit(n, 1);
+  REQUIRE(site.world->validate_edge(a, luff_first, problem.step).valid());
+  REQUIRE(site.world->validate_edge(luff_first, d, problem.step).valid());
+
+  const Shortened out = shorten(*site.world, nullptr, path, problem.step, 0);
+  CHECK(out.allocations == 0);
+  REQUIRE(out.path.size() == 3);
+  CHECK(out.path[0] == a);
+  CHECK(out.path[1] == luff_first);
+  CHECK(out.path[2] == d);
+  CHECK(out.source[1] == -1);
+  CHECK(out.source[2] == 3);
+  mgc::test::dense_recheck(kScenario, out.path, false);
+}

@@ -14,12 +14,16 @@ namespace mgc::planning {
 //!
 //! Deterministic, no random pairs. From each node in turn it takes the farthest later node that a
 //! staircase reaches in fewer edges than the stretch it replaces. A staircase moves one joint at a
-//! time, in the order the joints first move along the stretch. Then each edge that still moves
-//! more than one joint becomes a staircase where one is valid: the largest move first, as the
-//! one-joint-at-a-time follower would take it, else in joint order. So the machine moves what was
-//! checked. Every stair is validated in `world` at the planner's step resolution. The check runs
-//! in chunks of at most chunk_m of body travel, one chunk per unit of budget, so that a slice
-//! costs the same whatever an edge's length.
+//! time: first in the order the joints first move along the stretch, and where that is blocked in
+//! the other orders of the same joints (up to max_orders in all), since a way round an obstacle
+//! often needs a hoist or a boom move before the slew rather than after; every order takes the
+//! same one-joint-at-a-time time. Then each edge that still moves more than one joint becomes a
+//! staircase where one is valid: the largest move first, as the one-joint-at-a-time follower
+//! would take it, then the other orders. So the machine moves what was checked. Every stair is
+//! validated in `world` at the planner's step resolution. The check runs in chunks of at most
+//! chunk_m of body travel, one chunk per unit of budget, so that a slice costs the same whatever
+//! an edge's length. An order blocked at a stair rules out every order that begins the same way up
+//! to that stair, and the next order is validated from its first stair that differs.
 //!
 //! Each node remembers which input node it is (source()), or -1 for a staircase corner, so that
 //! a re-planner can still be told which of its own nodes the machine was heading for.
@@ -27,8 +31,9 @@ class PathShortener {
  public:
   enum class Status : std::int8_t { Idle = 0, Running, Done };
 
-  //! Allocates room for `capacity` nodes of `dof` joints.
-  PathShortener(int dof, std::size_t capacity, double chunk_m = 2.0);
+  //! Allocates room for `capacity` nodes of `dof` joints. max_orders: staircase orders tried per
+  //! stretch or edge (all of them for 4 joints at 24). [-]
+  PathShortener(int dof, std::size_t capacity, double chunk_m = 2.0, int max_orders = 24);
 
   //! Copies `prefix` (if not null) and then `path`, and starts shortening from node `first` on in
   //! `world` (which must stay posed as the path was planned until Done) at `step`. With shorten
@@ -54,8 +59,14 @@ class PathShortener {
   //! Chooses the next (i, k) pair or edge to try and plans its staircase; false when the phase
   //! has nothing left.
   bool next_candidate() noexcept;
-  //! The joints that differ from from_ to to_, in the chosen order, into order_ / order_count_.
-  void plan_stairs(bool largest_first) noexcept;
+  //! The joints that differ from node i_ to node k_, in the phase's first order, into base_ /
+  //! order_count_, and that order's stairs.
+  void plan_stairs() noexcept;
+  //! order_ and stairs_ from base_ permuted by perm_.
+  void build_stairs() noexcept;
+  //! The next order that does not begin as the blocked one does up to stair `blocked`; false when
+  //! none is left or max_orders have been tried. Sets stair_ and at_ to its first new stair.
+  bool next_order(int blocked) noexcept;
   //! Replaces nodes i_+1 .. k_ by the validated stairs, the last of which is node k_.
   void apply() noexcept;
   //! to - from of joint j, the short way round for a continuous joint. [rad | m]
@@ -78,9 +89,12 @@ class PathShortener {
   std::size_t i_ = 0;  //!< the stretch or edge being replaced: nodes i_ .. k_
   std::size_t k_ = 0;
   bool trying_ = false;        //!< a staircase is being validated
-  bool tried_largest_ = false; //!< Stairs phase: the largest-first order failed, joint order next
-  std::array<int, 16> order_{};
+  std::array<int, 16> base_{};   //!< the joints to move, in the phase's first order
+  std::array<int, 16> perm_{};   //!< the order being tried, as positions in base_
+  std::array<int, 16> order_{};  //!< the joints in the order being tried
   int order_count_ = 0;
+  int orders_tried_ = 0;
+  int max_orders_;
   int stair_ = 0;              //!< the stair being validated
   JointVector at_;             //!< how far along the stair the chunks have validated
   JointVector chunk_to_;
