@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // The Hal's read() and write() run every control cycle: after construction they must not touch
 // the heap, whatever the devices send. The simulator is held to the same rule so that mgc-sim's
-// timing is not disturbed by the allocator. tests/support/allocation_counter.cpp counts.
+// timing is not disturbed by the allocator, and so is its truth monitor, which samples in the same
+// loop. tests/support/allocation_counter.cpp counts.
 #include <catch2/catch.hpp>
 
 
 #include "allocation_counter.hpp"
+#include "mgc/sim/truth_monitor.hpp"
 #include "sim_rig.hpp"
 
 using namespace mgc;
@@ -29,4 +31,25 @@ TEST_CASE("Hal read/write and the simulator do not allocate, faults and fail-saf
   CHECK(rig.sim->counters().fail_safe_events >= 1);
   CHECK(rig.last->all_joints_valid());
   CHECK(rig.last->num_tags == 3);
+}
+
+TEST_CASE("the truth monitor's samples do not allocate", "[unit][sim][truth]") {
+  sim::SimConfig config = test::SimRig::quiet_config();
+  config.scenario_time_offset_s = 60.0;  // crane 2 swinging
+  test::SimRig rig("thesis-steel-frame-road.yaml", config, "alloc-truth");
+  sim::TruthMonitor monitor(rig.scenario);
+  REQUIRE(monitor.has_envelope());
+  rig.start();
+  rig.command[0] = -0.2;  // swing toward the road's wall
+  rig.run(100'000);
+  (void)monitor.sample(*rig.sim);  // warm-up
+
+  const long before = test::allocation_count();
+  std::uint64_t taken = 0;
+  for (int i = 0; i < 100; ++i) {
+    rig.run(10'000);
+    taken += monitor.sample(*rig.sim) ? 1U : 0U;
+  }
+  CHECK(test::allocation_count() == before);
+  CHECK(taken == 20);  // 1 s at one sample per 50 ms
 }

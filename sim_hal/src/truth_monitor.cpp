@@ -1,0 +1,175 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/sim/truth_monitor.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <stdexcept>
+
+#include "mgc/sim/simulator.hpp"
+
+namespace mgc::sim {
+
+namespace {
+
+//! Sim time advances in physics steps computed from integer microseconds: a sample due at 0.05 s
+//! must not wait a step for a rounding error. [s]
+constexpr double kTimeSlackS = 1e-9;
+
+//! Two decimals: centimetres and centiseconds, as mgc's summary prints them.
+std::string fixed2(double value) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f", value);
+  return buf;
+}
+
+}  // namespace
+
+TruthMonitor::TruthMonitor(const planning::Scenario& scenario, TruthMonitorConfig config)
+    : config_(config), num_dynamic_(scenario.dynamic_obstacles.size()) {
+  if (!(std::isfinite(config.period_s) && config.period_s >= 0.0)) {
+    throw std::invalid_argument("truth monitor: the period must be a finite number >= 0 s");
+  }
+  if (!(std::isfinite(config.clearance_margin_m) && config.clearance_margin_m >= 0.0)) {
+    throw std::invalid_argument("truth monitor: the clearance margin must be a finite number >= 0 m");
+  }
+  // The real machine: its bodies as they are, without the planner's safety margin around them.
+  planning::Scenario bare = scenario;
+  bare.planner.dilation_m = 0.0;
+  try {
+    model_ = planning::build_model(bare);
+    world_ = planning::build_world(bare, *model_);
+    if (num_dynamic_ > 0) {
+      bare.obstacles.clear();
+      dynamic_world_ = planning::build_world(bare, *model_);
+    }
+    if (scenario.envelope) {
+      envelope_ = std::make_unique<guidance::Envelope>(*model_, guidance::envelope_config(*scenario.envelope, *model_));
+    }
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("truth monitor: ") + e.what());
+  }
+  q_wrapped_ = planning::JointVector::Zero(model_->dof());
+  if (scenario.start.size() != model_->dof()) {
+    throw std::invalid_argument("truth monitor: the scenario's start has " + std::to_string(scenario.start.size()) +
+                                " joints, its machine " + std::to_string(model_->dof()));
+  }
+  // Any configuration poses the fixed bodies alike; the start is one whose moving bodies are sane.
+  fixed_static_ =
+      world_->clearance(scenario.start, planning::CollisionWorld::Bodies::Fixed, planning::CollisionWorld::Obstacles::Static);
+}
+
+TruthMonitor::~TruthMonitor() = default;
+
+bool TruthMonitor::sample(const Simulator& sim) noexcept {
+  const TrueState& truth = sim.truth();
+  if (truth.t_s < next_sample_t_s_ - kTimeSlackS) return false;
+  for (std::size_t i = 0; i < num_dynamic_; ++i) set_obstacle_pose(i, sim.obstacle_pose(i));
+  planning::JointVector q(model_->dof());
+  for (int j = 0; j < model_->dof(); ++j) q[j] = truth.position[static_cast<std::size_t>(j)];
+  (void)measure(truth.t_s, q);
+  // On the period's grid while the caller keeps up; from now on when it fell behind by a period.
+  next_sample_t_s_ = std::isfinite(next_sample_t_s_) ? next_sample_t_s_ + config_.period_s : truth.t_s + config_.period_s;
+  if (next_sample_t_s_ <= truth.t_s) next_sample_t_s_ = truth.t_s + config_.period_s;
+  return true;
+}
+
+void TruthMonitor::set_obstacle_pose(std::size_t i, const Eigen::Isometry3d& world_from_obstacle) noexcept {
+  if (i >= num_dynamic_) return;
+  world_->set_dynamic_pose(static_cast<int>(i), world_from_obstacle);
+  dynamic_world_->set_dynamic_pose(static_cast<int>(i), world_from_obstacle);
+}
+
+const TruthSample& TruthMonitor::measure(double t_s, const planning::JointVector& q) noexcept {
+  TruthSample& s = last_;
+  s.t_s = t_s;
+  // The whole machine's clearance is the least of three parts, so that the fixed bodies' distance
+  // to the static site, which no joint changes, is not measured again at every sample: the moving
+  // bodies to everything (0 on any contact of the machine, as clearance() of all bodies gives), the
+  // fixed bodies to the static site (measured once), and every body to the dynamic obstacles.
+  s.moving_clearance = world_->clearance(q, planning::CollisionWorld::Bodies::Moving);
+  s.clearance = s.moving_clearance;
+  if (fixed_static_.distance_m < s.clearance.distance_m) s.clearance = fixed_static_;
+  if (num_dynamic_ > 0) {
+    s.dynamic_clearance = dynamic_world_->clearance(q);
+    if (s.dynamic_clearance.distance_m < s.clearance.distance_m) s.clearance = s.dynamic_clearance;
+  } else {
+    s.dynamic_clearance = planning::Clearance{std::numeric_limits<double>::infinity()};
+  }
+  s.envelope = guidance::EnvelopeDistance{};
+  if (envelope_) {
+    // The limiter's azimuths are taken on wrapped angles, as the controller feeds it.
+    for (int j = 0; j < model_->dof(); ++j) {
+      const bool continuous = model_->joints()[static_cast<std::size_t>(j)].continuous;
+      q_wrapped_[j] = continuous ? std::remainder(q[j], 2.0 * std::numbers::pi) : q[j];
+    }
+    s.envelope = envelope_->nearest(q_wrapped_);
+  }
+
+  TruthSummary& m = summary_;
+  ++m.samples;
+  if (s.clearance.distance_m < config_.clearance_margin_m) ++m.samples_below_margin;
+  if (s.clearance.distance_m < m.least_clearance.distance_m) {
+    m.least_clearance = s.clearance;
+    m.least_clearance_t_s = t_s;
+  }
+  if (s.moving_clearance.distance_m < m.least_moving.distance_m) {
+    m.least_moving = s.moving_clearance;
+    m.least_moving_t_s = t_s;
+  }
+  if (num_dynamic_ > 0 && s.dynamic_clearance.distance_m < m.least_dynamic.distance_m) {
+    m.least_dynamic = s.dynamic_clearance;
+    m.least_dynamic_t_s = t_s;
+  }
+  if (s.envelope.limit != guidance::EnvelopeLimit::None) {
+    if (s.envelope.distance_m < 0.0) ++m.samples_outside_envelope;
+    if (s.envelope.distance_m < m.least_envelope.distance_m) {
+      m.least_envelope = s.envelope;
+      m.least_envelope_t_s = t_s;
+    }
+  }
+  return s;
+}
+
+std::string TruthMonitor::summary_line() const {
+  const TruthSummary& m = summary_;
+  if (m.samples == 0) return "no samples";
+  const auto body = [this](int b) {
+    return b >= 0 && b < static_cast<int>(model_->bodies().size()) ? model_->bodies()[static_cast<std::size_t>(b)].name
+                                                                    : std::string("?");
+  };
+  const auto what = [&](const planning::Clearance& c) -> std::string {
+    switch (c.with) {
+      case planning::Contact::With::Static: return body(c.body) + " to " + world_->static_name(c.other);
+      case planning::Contact::With::Dynamic: return body(c.body) + " to " + world_->dynamic_name(c.other);
+      case planning::Contact::With::Self: return body(c.body) + " to " + body(c.other);
+      case planning::Contact::With::Nothing: break;
+    }
+    return "nothing near";
+  };
+  std::string line = "least clearance " + fixed2(m.least_clearance.distance_m) + " m at " + fixed2(m.least_clearance_t_s) +
+                     " s (" + what(m.least_clearance) + "), of the moving bodies " + fixed2(m.least_moving.distance_m) +
+                     " m at " + fixed2(m.least_moving_t_s) + " s (" + what(m.least_moving) + ")";
+  if (num_dynamic_ > 0) {
+    line += "; to the dynamic obstacles " + fixed2(m.least_dynamic.distance_m) + " m at " + fixed2(m.least_dynamic_t_s) +
+            " s (" + what(m.least_dynamic) + ")";
+  }
+  line += "; " + std::to_string(m.samples_below_margin) + " of " + std::to_string(m.samples) +
+          " samples below " + fixed2(config_.clearance_margin_m) + " m";
+  if (envelope_) {
+    if (m.least_envelope.limit == guidance::EnvelopeLimit::None) {
+      line += "; envelope: no limit measured";
+    } else {
+      const auto& names = model_->key_point_names();
+      const int p = m.least_envelope.point;
+      std::string limit = guidance::to_string(m.least_envelope.limit);
+      if (m.least_envelope.limit == guidance::EnvelopeLimit::Wall) limit += " " + std::to_string(m.least_envelope.wall);
+      line += "; envelope: least distance " + fixed2(m.least_envelope.distance_m) + " m at " + fixed2(m.least_envelope_t_s) + " s (" +
+              (p >= 0 && p < static_cast<int>(names.size()) ? names[static_cast<std::size_t>(p)] : std::string("?")) + " to " +
+              limit + "), " + std::to_string(m.samples_outside_envelope) + " samples outside";
+    }
+  }
+  return line;
+}
+
+}  // namespace mgc::sim
