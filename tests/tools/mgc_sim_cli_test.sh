@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # mgc-sim as a process: bad input exits 2 with one line naming what is wrong; a real-time run over
-# UDP on loopback answers a Hal client (mgc-busmon) and writes the truth log; an injected fault shows
-# at the client.
+# UDP on loopback answers a Hal client (mgc-busmon), writes the truth log with the truth monitor's
+# columns and prints the monitor's line; an injected fault shows at the client; --monitor-period-ms 0
+# turns the monitor off.
 set -u
 sim="$1"
 busmon="$2"
@@ -48,15 +49,21 @@ run_pair healthy 0
 grep -q 'joint boom_length  *20.0000 m   alive' "$tmp/healthy.out" || fail "healthy: boom length not read as 20 m: $(tail -12 "$tmp/healthy.out")"
 grep -Eq 'tag +1 .* valid' "$tmp/healthy.out" || fail "healthy: tag 1 not valid"
 grep -q 'malformed=0 unknown=0' "$tmp/healthy.out" || fail "healthy: malformed or unknown frames"
-head -1 "$tmp/healthy.csv" | grep -q '^t_s,swing_deg,swing_velocity_deg_s,swing_spool,.*,valve_state,valve_reason,crane-2_x_m,crane-2_y_m,crane-2_z_m,crane-2_yaw_deg$' ||
+head -1 "$tmp/healthy.csv" | grep -q '^t_s,swing_deg,swing_velocity_deg_s,swing_spool,.*,valve_state,valve_reason,crane-2_x_m,crane-2_y_m,crane-2_z_m,crane-2_yaw_deg,clearance_m,moving_clearance_m,dynamic_clearance_m$' ||
   fail "truth CSV header: $(head -1 "$tmp/healthy.csv")"
 rows=$(($(wc -l <"$tmp/healthy.csv") - 1))
 [ "$rows" -ge 300 ] && [ "$rows" -le 360 ] || fail "truth CSV: $rows rows for 3.5 s at 10 ms"
 grep -q 'stopped at 3.5' "$tmp/healthy.sim" || fail "no summary: $(cat "$tmp/healthy.sim")"
 grep -q ' 0 malformed, 0 unknown ids' "$tmp/healthy.sim" || fail "mgc-sim saw malformed frames: $(cat "$tmp/healthy.sim")"
+# The crane stands at its start: its carrier 1.30 m from the frame, crane 2 parked 24.2 m away.
+grep -Eq '^mgc-sim: truth: least clearance 1\.30 m at 0\.00 s \(carrier to frame/.*to the dynamic obstacles 24\.20 m .* 0 of (6[0-9]|7[0-9]) samples below 0\.50 m$' \
+  "$tmp/healthy.sim" || fail "no truth line, or not the start's clearance: $(cat "$tmp/healthy.sim")"
+tail -1 "$tmp/healthy.csv" | grep -Eq ',1\.3000,6\.5[0-9]+,24\.20[0-9]+$' || fail "truth CSV clearance columns: $(tail -1 "$tmp/healthy.csv")"
 
-run_pair dropout 1 --fault encoder-dropout:cable_length@1
+run_pair dropout 1 --fault encoder-dropout:cable_length@1 --monitor-period-ms 0
 grep -q 'joint cable_length .* stale' "$tmp/dropout.out" || fail "dropout: cable_length not stale: $(tail -12 "$tmp/dropout.out")"
 grep -q 'joint swing .* alive' "$tmp/dropout.out" || fail "dropout: swing should stay alive"
+grep -q 'truth:' "$tmp/dropout.sim" && fail "--monitor-period-ms 0 still printed the truth line"
+head -1 "$tmp/dropout.csv" | grep -q 'crane-2_yaw_deg$' || fail "--monitor-period-ms 0 still wrote clearance columns"
 
 finish "mgc-sim CLI"
