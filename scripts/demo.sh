@@ -5,8 +5,9 @@
 # (mgc-operator) requests the lift with a signed command and shows the guidance and alerts as they
 # come over LCM, while the second crane swings into the lift's path mid-way. At the end: mgc's
 # transitions and summary (lift completed, duration, re-plans, stops, least clearance, alerts, loop
-# timing), an SVG of what happened (build/demo/lift.svg), the LCM log (build/demo/mgc.lcmlog), the
-# controller's trace and the true machine state (CSV).
+# timing), mgc-sim's truth line (the true crane's least clearance, measured by the simulator, not
+# the controller), an SVG of what happened (build/demo/lift.svg), the LCM log
+# (build/demo/mgc.lcmlog), the controller's trace and the true machine state (CSV).
 # Then, offline: every shipped scenario loaded, checked and planned (the thesis's planner limcon;
 # the two-crane lifts with multi-rrt; the excavator's work cycle with nonuniform), and the event
 # scenarios executed with re-planning (mgc-bench's replan suite, two seeds). Installs missing
@@ -37,7 +38,7 @@ echo "    crane 2 swings its boom across the west route 20-44 s into the lift (m
 lcm-logger -q -f --lcm-url="$lcm_url" "$out/mgc.lcmlog" &
 logger_pid=$!
 "${sim_rt[@]}" "$bin/mgc-sim" --scenario "$site" --scenario-time-offset 40 --duration 620 --quiet \
-  --truth-csv "$out/truth.csv" &
+  --truth-csv "$out/truth.csv" >"$out/sim.txt" &
 sim_pid=$!
 "$bin/mgc" --scenario "$site" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 600 \
   --trace-csv "$out/trace.csv" "${mgc_rt[@]}" >"$out/mgc.txt" 2>&1 &
@@ -48,6 +49,7 @@ wait "$mgc_pid" || mgc_status=$?
 kill "$sim_pid" "$logger_pid" 2>/dev/null || true
 wait "$sim_pid" "$logger_pid" 2>/dev/null || true
 cat "$out/mgc.txt"
+cat "$out/sim.txt"
 [ "$mgc_status" -eq 0 ] || status=$mgc_status
 "$bin/mgc-plan" --scenario "$site" --trace "$out/trace.csv" --svg "$out/lift.svg" || status=$?
 echo "what happened: build/demo/lift.svg; LCM log: build/demo/mgc.lcmlog ($(wc -c <"$out/mgc.lcmlog") bytes);"
