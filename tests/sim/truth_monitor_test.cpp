@@ -132,7 +132,8 @@ TEST_CASE("the truth monitor keeps the least clearance with its time and counts 
   // Crane 2 parked 20 m west, its boom pointing away: swinging our load from the start (north) to
   // the west brings it to about a metre of crane 2's carrier, nearer than our own carrier is to the
   // frame (1.30 m).
-  const Eigen::Isometry3d parked = Eigen::Translation3d(-20.0, 0.0, 0.0) * Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitZ());
+  const Eigen::Isometry3d parked =
+      Eigen::Translation3d(-20.0, 0.0, 0.0) * Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitZ());
   ref.world->set_dynamic_pose(0, parked);
   const planning::JointVector far = scenario.start;
   planning::JointVector near = scenario.start;
@@ -187,9 +188,9 @@ TEST_CASE("the truth monitor samples the simulator once a period at the true sta
   planning::JointVector q(static_cast<int>(rig.sim->truth().num_joints));
   for (int j = 0; j < q.size(); ++j) q[j] = rig.sim->truth().position[static_cast<std::size_t>(j)];
   CHECK(monitor.last().clearance.distance_m == Approx(ref.world->clearance(q).distance_m).margin(1e-9));
-  CHECK(monitor.last().dynamic_clearance.distance_m ==
-        Approx(ref.world->clearance(q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m)
-            .margin(1e-9));
+  const planning::Clearance dynamic =
+      ref.world->clearance(q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic);
+  CHECK(monitor.last().dynamic_clearance.distance_m == Approx(dynamic.distance_m).margin(1e-9));
 }
 
 TEST_CASE("the truth monitor refuses a negative period", "[unit][sim][truth]") {

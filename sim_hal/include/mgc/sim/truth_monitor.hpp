@@ -69,8 +69,9 @@ class TruthMonitor {
  public:
   //! Builds the machine model, a world with the whole site, one with the dynamic obstacles alone
   //! (so that their distance is not hidden by a contact with the static site), and the envelope,
-  //! and measures the fixed bodies' distance to the static site, which no joint changes. Allocates. Throws std::invalid_argument with the reason for a scenario whose model, world or
-  //! envelope cannot be built, or for a period or margin that is negative or not finite.
+  //! and measures the fixed bodies' distance to the static site, which no joint changes. Allocates.
+  //! Throws std::invalid_argument with the reason for a scenario whose model, world or envelope
+  //! cannot be built, or for a period or margin that is negative or not finite.
   TruthMonitor(const planning::Scenario& scenario, TruthMonitorConfig config = {});
   ~TruthMonitor();
   TruthMonitor(const TruthMonitor&) = delete;
