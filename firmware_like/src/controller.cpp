@@ -868,6 +868,11 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
     (void)next_moves_in_words(model_->kind(), n_, std::span<const double>(w[0].data(), static_cast<std::size_t>(n_)),
                               std::span<const std::array<double, kMaxJoints>>(w.data(), count), 0, 2,
                               std::span<char>(snap_.instruction_text.data(), snap_.instruction_text.size()));
+  } else if (std::isfinite(approach_s_) && approach_obstacle_ >= 0 &&
+             static_cast<std::size_t>(approach_obstacle_) < scenario_.dynamic_obstacles.size()) {
+    // At rest nothing moves the machine out of the way: the operator is told what is coming.
+    (void)std::snprintf(snap_.instruction_text.data(), snap_.instruction_text.size(), "%s approaching: within the stop margin in %.1f s",
+                        scenario_.dynamic_obstacles[static_cast<std::size_t>(approach_obstacle_)].obstacle.name.c_str(), approach_s_);
   }
 
   // Clearances.

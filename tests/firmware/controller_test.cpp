@@ -57,6 +57,7 @@ struct Run {
   //! cycles with a prediction it did not carry so.
   int approach_alert_cycles = 0;
   int approach_alert_missing = 0;
+  int approach_words_missing = 0;  //!< cycles with a prediction the operator's words did not tell
 
   Run(const char* scenario, sim::SimConfig config, const std::string& bus)
       : rig(scenario, std::move(config), bus), controller(rig.scenario, firmware::ControllerConfig{}) {
@@ -100,6 +101,7 @@ struct Run {
                               alert.value_unit == mgc::alert_t::UNIT_SECOND && alert.value == controller.approach_s());
       }
       ++(carried ? approach_alert_cycles : approach_alert_missing);
+      if (std::strstr(snap.instruction_text.data(), "approaching: within the stop margin in") == nullptr) ++approach_words_missing;
     }
     for (const char* words = controller.snapshot().instruction_text.data(); (words = std::strstr(words, "swing ")) != nullptr;) {
       words += 6;
@@ -357,6 +359,7 @@ TEST_CASE("the controller does not move a crane that crane 2 has run into", "[fi
   CHECK(st.approach_warnings >= 1);
   CHECK(run.approach_alert_cycles > 0);
   CHECK(run.approach_alert_missing == 0);
+  CHECK(run.approach_words_missing == 0);
   // Parked against our crane, crane 2 no longer moves: nothing is predicted any more.
   CHECK(std::isinf(run.controller.approach_s()));
   CHECK(st.retreats == 0);
