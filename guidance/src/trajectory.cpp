@@ -274,6 +274,14 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   const double a0_2 = a0 * a0, a0_3 = a0_2 * a0, J_2 = J * J, v0_2 = v0 * v0;
   // Terms of the position equation shared by the plateau types.
   const double shared = -24.0 * A * J_2 * d - 24.0 * A * J * a0 * v0 + 8.0 * A * a0_3;
+  // The checks below on a root, as bounds on the square of the acceleration it gives, so that each
+  // type's interval holds only roots they can accept (most of those intervals are then empty, or
+  // have no root by the Taylor bound): the peak velocity v0 + (2 x^2 - a0^2)/(2 J) of an x > 0,
+  // and z^2/J of ACC0's, is at most v_lim when x^2 (z^2) <= J v_lim - c (J v_lim); a plateau is
+  // not shorter than -kTimeTolerance when x^2 >= A^2 - c (ACC1) or z^2 >= A^2 + c (ACC0). Each bound
+  // is widened by a margin well above its rounding, so no root the checks accept is left out.
+  const double margin = 1e-9 * (J * v_lim + std::abs(c) + A * A) + kTimeTolerance * A * J;
+  const double peak_sq = J * v_lim - c + margin;
 
   // VEL: cruise at +v_max.
   {
@@ -297,7 +305,7 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     double lo = a0, hi = A;
     if (c < 0.0) lo = std::max(lo, std::sqrt(-c));
     if (A * A - c < 0.0) hi = lo - 1.0;
-    else hi = std::min(hi, std::sqrt(A * A - c));
+    else hi = std::min({hi, std::sqrt(A * A - c), std::sqrt(std::max(peak_sq, 0.0))});
     const int n = real_roots<4>(coef, lo, hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, -1.0);
@@ -316,7 +324,9 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
                                 12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2,
                             0.0, 12.0 * A * A, -24.0 * A, 12.0};
-    const int n = real_roots<4>(coef, -A, 0.0, roots.data());
+    const double z_lo = -std::sqrt(std::min(A * A, std::max(J * v_lim + margin, 0.0)));
+    const double z_hi = -std::sqrt(std::max(A * A + c - margin, 0.0));
+    const int n = real_roots<4>(coef, z_lo, z_hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double z = roots[static_cast<std::size_t>(i)];
       const double t1 = (z * z - A * A - c) / (A * J);
@@ -332,10 +342,16 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared + 12.0 * J_2 * v0_2 -
                                 12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
                             24.0 * A * k, 12.0 * (A * A + k), 24.0 * A, 12.0};
+    // x <= -x_min (an early turn, the peak check not applying) or x in [x_min, x_max].
+    const double x_min = std::sqrt(std::max(A * A - c - margin, 0.0));
+    const double x_max = std::min(A, std::sqrt(std::max(peak_sq, 0.0)));
     const double lo = std::max(a0, -A);
-    const int n = real_roots<4>(coef, lo, A, roots.data());
+    std::array<double, 2 * 4> split_roots{};  // up to four in each part
+    int n = 0;
+    if (x_min > 0.0) n = real_roots<4>(coef, lo, -x_min, split_roots.data());
+    n += real_roots<4>(coef, x_min > 0.0 ? std::max(lo, x_min) : lo, x_max, split_roots.data() + n);
     for (int i = 0; i < n; ++i) {
-      const double x = roots[static_cast<std::size_t>(i)];
+      const double x = split_roots[static_cast<std::size_t>(i)];
       const double t5 = (x * x - A * A + c) / (A * J);
       if (t5 < -kTimeTolerance) continue;
       const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
