@@ -228,23 +228,26 @@ double polish_none(double x, double lo, double hi, double v0, double a0, double 
 //! +j_max (jerk_sign -1 undoes the mirror). Either a no-cruise UDDU profile given by its head, jerk
 //! J for t0 and a plateau t1, followed by the time-optimal stop from the state reached; or a cruise
 //! member: the time-optimal change to cruise_velocity, a cruise, and the change to rest.
+//! No default member values: every candidate is written in full when added, and the unused slots
+//! of Candidates are then left unwritten (initialising all of them cost more than the solving).
 struct Candidate {
-  double duration_s = std::numeric_limits<double>::infinity();
-  double t0_s = 0.0, t1_s = 0.0;  //!< head of a no-cruise profile [s]
-  double t2_s = 0.0;              //!< [s] UDUD only: the -J ramp of the head to zero acceleration
-  double cruise_velocity = 0.0;   //!< [m/s], 0 for a no-cruise profile
-  double cruise_s = 0.0;          //!< [s]
-  double jerk_sign = 1.0;
+  double duration_s;
+  double t0_s, t1_s;       //!< head of a no-cruise profile [s]
+  double t2_s;             //!< [s] UDUD only: the -J ramp of the head to zero acceleration
+  double cruise_velocity;  //!< [m/s], 0 for a no-cruise profile
+  double cruise_s;         //!< [s]
+  double jerk_sign;
   //! [m/s] (mirrored) velocity where the acceleration passes through zero between the change to
   //! it and the change to rest (> 0 for UDDU, < 0 for UDUD); 0 for an early turn, which has none.
-  double peak_velocity = 0.0;
-  bool tried = false;  //!< built once and failed the end-state check
+  double peak_velocity;
+  bool tried;  //!< built once and failed the end-state check
 };
 
 constexpr std::size_t kMaxCandidates = 32;
 
+//! Only items[0, count) are meaningful.
 struct Candidates {
-  std::array<Candidate, kMaxCandidates> items{};
+  std::array<Candidate, kMaxCandidates> items;
   std::size_t count = 0;
   void add(const Candidate& c) noexcept {
     if (count < items.size() && std::isfinite(c.duration_s)) items[count++] = c;
@@ -626,7 +629,7 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
   Candidates candidates;
   bool built = false;
   for (int pass = 0; pass < 2 && !built; ++pass) {
-    candidates = Candidates{};
+    candidates.count = 0;
     // A target where the stop ends: every type below meets it only at the end of its interval (a
     // ramp of zero length), where rounding may lose it. No move to rest is faster.
     if (std::abs(stop_distance - d) <= 1e-9) {
