@@ -3,30 +3,11 @@
 
 namespace mgc::guidance {
 
-JointState advance(const JointState& s, double jerk, double t_s) noexcept {
-  const double t = t_s;
-  return {s.position + t * (s.velocity + t * (s.acceleration / 2.0 + t * jerk / 6.0)),
-          s.velocity + t * (s.acceleration + t * jerk / 2.0), s.acceleration + t * jerk};
-}
-
 void Profile::reset(const JointState& start) noexcept {
   count_ = 0;
   brake_phase_count = 0;
   start_state_[0] = start;
   start_time_s_[0] = 0.0;
-}
-
-bool Profile::append(double duration_s, double jerk) noexcept {
-  // A phase too short to move the clock could never be sampled; its effect on the state is below
-  // the rounding of the time itself.
-  if (!(start_time_s_[count_] + duration_s > start_time_s_[count_])) return true;
-  if (count_ >= kMaxPhases) return false;
-  duration_s_[count_] = duration_s;
-  jerk_[count_] = jerk;
-  start_state_[count_ + 1] = advance(start_state_[count_], jerk, duration_s);
-  start_time_s_[count_ + 1] = start_time_s_[count_] + duration_s;
-  ++count_;
-  return true;
 }
 
 JointSample Profile::at_time(double t_s) const noexcept {

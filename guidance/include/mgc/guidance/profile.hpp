@@ -21,6 +21,14 @@ struct JointSample {
   double jerk = 0.0;          //!< [m/s³] or [rad/s³]
 };
 
+//! The state after moving for t_s [s] with constant jerk from `s` (exact Taylor polynomial). Inline,
+//! as is Profile::append: a trajectory calculation calls them a dozen times or more.
+[[nodiscard]] inline JointState advance(const JointState& s, double jerk, double t_s) noexcept {
+  const double t = t_s;
+  return {s.position + t * (s.velocity + t * (s.acceleration / 2.0 + t * jerk / 6.0)),
+          s.velocity + t * (s.acceleration + t * jerk / 2.0), s.acceleration + t * jerk};
+}
+
 //! A one-DoF motion of piecewise-constant jerk: up to kMaxPhases phases from a start state. The
 //! state at each phase start is integrated once when the phase is appended, so sampling is exact
 //! (a cubic in the time since the phase start) and O(phases). RT-safe: no alloc, no throw.
@@ -38,7 +46,18 @@ class Profile {
   }
 
   //! Appends a phase of constant jerk; phases too short to advance the clock are skipped. False when full.
-  [[nodiscard]] bool append(double duration_s, double jerk) noexcept;
+  [[nodiscard]] bool append(double duration_s, double jerk) noexcept {
+    // A phase too short to move the clock could never be sampled; its effect on the state is below
+    // the rounding of the time itself.
+    if (!(start_time_s_[count_] + duration_s > start_time_s_[count_])) return true;
+    if (count_ >= kMaxPhases) return false;
+    duration_s_[count_] = duration_s;
+    jerk_[count_] = jerk;
+    start_state_[count_ + 1] = advance(start_state_[count_], jerk, duration_s);
+    start_time_s_[count_ + 1] = start_time_s_[count_] + duration_s;
+    ++count_;
+    return true;
+  }
 
   //! State at time t since the profile start [s]. Before 0 the start; after the end the end state
   //! advanced with zero jerk (a profile ending at rest then holds still).
@@ -63,8 +82,5 @@ class Profile {
   std::array<JointState, kMaxPhases + 1> start_state_{};
   std::array<double, kMaxPhases + 1> start_time_s_{};
 };
-
-//! The state after moving for t_s [s] with constant jerk from `s` (exact Taylor polynomial).
-[[nodiscard]] JointState advance(const JointState& s, double jerk, double t_s) noexcept;
 
 }  // namespace mgc::guidance
