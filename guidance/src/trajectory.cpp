@@ -533,13 +533,14 @@ bool build(const Candidate& c, const JointState& s, double target_position, cons
     return false;
   }
   const std::size_t cruise_index = out.phase_count();
+  // The re-timing changes only the cruise, so the stop after it is the same in both passes.
+  JointState head = out.end_state();
+  head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
+  const VelocityChange stop = velocity_change(head.velocity, head.acceleration, 0.0, a_max, j_max);
   double cruise = c.cruise_s;
   bool appended = true;
   for (int pass = 0; pass < 2; ++pass) {
     out.truncate(cruise_index);
-    JointState head = out.end_state();
-    head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
-    const VelocityChange stop = velocity_change(head.velocity, head.acceleration, 0.0, a_max, j_max);
     appended = out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
                out.append(stop.t3, -stop.jerk);
     if (!(cruise > 0.0)) break;
