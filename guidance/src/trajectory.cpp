@@ -87,6 +87,9 @@ double polish(const double* c, double a, double fa, double b, double fb, double 
       fb = f;
     }
     double next = x - f / df;
+    // Converged: checked before the bracket test, since x is now an end of the bracket and a step
+    // of rounding size often leaves it, which would restart the slow secant and bisection steps.
+    if (std::abs(next - x) <= tol) return next >= a && next <= b ? next : x;
     if (!(next > a && next < b)) {
       // Newton left the bracket (or df was 0): the secant of the bracket, halved values at an end
       // kept twice would be better still, but a bisection every other time bounds the iterations.
