@@ -484,10 +484,15 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
       add((2.0 * x - a0 + 2.0 * w) / J, (x - a0) / J, 0.0, x / J, -w * w / J);
     }
   }
+  // A plateau is not shorter than -kTimeTolerance when the acceleration w (ACC0) or x (ACC1) of the
+  // other ramp pair has a square at most -(A^2 + c) (widened as in the UDDU types): the only part
+  // of the interval where a root can be accepted.
+  const double plateau_sq = -(A * A + c) + 1e-9 * (A * A + std::abs(c)) + kTimeTolerance * A * J;
+  const double plateau_hi = plateau_sq >= 0.0 ? std::min(A, std::sqrt(plateau_sq)) : -1.0;
   // ACC0: x = A; unknown w in [0, A]; t1 = -(A^2 + c + w^2)/(A J).
   {
     const double coef[5] = {plateau_c0, 0.0, -12.0 * A * A, -24.0 * A, 12.0};
-    const int n = real_roots<4>(coef, 0.0, A, roots.data());
+    const int n = real_roots<4>(coef, 0.0, plateau_hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double w = roots[static_cast<std::size_t>(i)];
       const double t1 = -(A * A + c + w * w) / (A * J);
@@ -499,7 +504,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   {
     const double k = 2.0 * J * v0 - a0_2;
     const double coef[5] = {plateau_c0, 24.0 * A * k, -12.0 * (k - A * A), 24.0 * A, -12.0};
-    const int n = real_roots<4>(coef, x_lo, A, roots.data());
+    const int n = real_roots<4>(coef, x_lo, plateau_hi, roots.data());
     for (int i = 0; i < n; ++i) {
       const double x = roots[static_cast<std::size_t>(i)];
       const double t5 = -(A * A + c + x * x) / (A * J);
