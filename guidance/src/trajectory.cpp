@@ -303,70 +303,79 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   // NONE: unknown x in [a0, A] with x^2 + c in [0, A^2]; the position is P(x) + z Q(x) = d with
   // z = -sqrt(x^2 + c), squared into a quartic (its spurious roots, z > 0, fail the residual).
   {
-    const double k = 2.0 * c, h = 3.0 * J_2 * d + 3.0 * J * a0 * v0 - a0_3;
-    const double coef[5] = {(-72.0 * J_2 * J_2 * d * d - 144.0 * J_2 * J * a0 * d * v0 + 72.0 * J_2 * J * v0_2 * v0 +
-                             48.0 * J_2 * a0_3 * d - 180.0 * J_2 * a0_2 * v0_2 + 102.0 * J * a0_2 * a0_2 * v0 -
-                             17.0 * a0_3 * a0_3) / 72.0,
-                            2.0 / 3.0 * k * h, -k * k / 4.0, 2.0 / 3.0 * h, -k / 2.0};
     double lo = a0, hi = A;
     if (c < 0.0) lo = std::max(lo, std::sqrt(-c));
     if (A * A - c < 0.0) hi = lo - 1.0;
     else hi = std::min({hi, std::sqrt(A * A - c), std::sqrt(std::max(peak_sq, 0.0))});
-    const int n = real_roots<4>(coef, lo, hi, roots.data());
-    for (int i = 0; i < n; ++i) {
-      const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, -1.0);
-      const double z = -std::sqrt(std::max(x * x + c, 0.0));
-      const double p = (-3.0 * J * a0 * v0 + 6.0 * J * v0 * x + a0_3 - 3.0 * a0_2 * x + 3.0 * x * x * x) / (3.0 * J_2);
-      const double q = -(k + 2.0 * x * x) / (2.0 * J_2);
-      if (!(std::abs(p + z * q - d) <= 1e-6 * (std::abs(p) + std::abs(z * q) + std::abs(d)))) continue;
-      if (x < z - kTimeTolerance * J) continue;
-      const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
-      if (peak > v_lim) continue;
-      add((2.0 * x - a0 - 2.0 * z) / J, (x - a0) / J, 0.0, peak);
+    // The coefficients only for an interval that is not empty (most are not).
+    if (lo <= hi) {
+      const double k = 2.0 * c, h = 3.0 * J_2 * d + 3.0 * J * a0 * v0 - a0_3;
+      const double coef[5] = {(-72.0 * J_2 * J_2 * d * d - 144.0 * J_2 * J * a0 * d * v0 +
+                               72.0 * J_2 * J * v0_2 * v0 + 48.0 * J_2 * a0_3 * d - 180.0 * J_2 * a0_2 * v0_2 +
+                               102.0 * J * a0_2 * a0_2 * v0 - 17.0 * a0_3 * a0_3) / 72.0,
+                              2.0 / 3.0 * k * h, -k * k / 4.0, 2.0 / 3.0 * h, -k / 2.0};
+      const int n = real_roots<4>(coef, lo, hi, roots.data());
+      for (int i = 0; i < n; ++i) {
+        const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, -1.0);
+        const double z = -std::sqrt(std::max(x * x + c, 0.0));
+        const double p =
+            (-3.0 * J * a0 * v0 + 6.0 * J * v0 * x + a0_3 - 3.0 * a0_2 * x + 3.0 * x * x * x) / (3.0 * J_2);
+        const double q = -(k + 2.0 * x * x) / (2.0 * J_2);
+        if (!(std::abs(p + z * q - d) <= 1e-6 * (std::abs(p) + std::abs(z * q) + std::abs(d)))) continue;
+        if (x < z - kTimeTolerance * J) continue;
+        const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
+        if (peak > v_lim) continue;
+        add((2.0 * x - a0 - 2.0 * z) / J, (x - a0) / J, 0.0, peak);
+      }
     }
   }
   // ACC0: x = A; unknown z in [-A, 0]; t1 = (z^2 - A^2 - c)/(A J).
   {
-    const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
-                                12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2,
-                            0.0, 12.0 * A * A, -24.0 * A, 12.0};
     const double z_lo = -std::sqrt(std::min(A * A, std::max(J * v_lim + margin, 0.0)));
     const double z_hi = -std::sqrt(std::max(A * A + c - margin, 0.0));
-    const int n = real_roots<4>(coef, z_lo, z_hi, roots.data());
-    for (int i = 0; i < n; ++i) {
-      const double z = roots[static_cast<std::size_t>(i)];
-      const double t1 = (z * z - A * A - c) / (A * J);
-      if (t1 < -kTimeTolerance) continue;
-      const double peak = v0 + (A * A - a0_2) / (2.0 * J) + A * std::max(t1, 0.0) + A * A / (2.0 * J);
-      if (peak > v_lim) continue;
-      add((A - a0) / J + std::max(t1, 0.0) + (A - 2.0 * z) / J, (A - a0) / J, t1, peak);
+    if (z_lo <= z_hi) {
+      const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
+                                  12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2,
+                              0.0, 12.0 * A * A, -24.0 * A, 12.0};
+      const int n = real_roots<4>(coef, z_lo, z_hi, roots.data());
+      for (int i = 0; i < n; ++i) {
+        const double z = roots[static_cast<std::size_t>(i)];
+        const double t1 = (z * z - A * A - c) / (A * J);
+        if (t1 < -kTimeTolerance) continue;
+        const double peak = v0 + (A * A - a0_2) / (2.0 * J) + A * std::max(t1, 0.0) + A * A / (2.0 * J);
+        if (peak > v_lim) continue;
+        add((A - a0) / J + std::max(t1, 0.0) + (A - 2.0 * z) / J, (A - a0) / J, t1, peak);
+      }
     }
   }
   // ACC1: z = -A; unknown x in [max(a0, -A), A]; t5 = (x^2 - A^2 + c)/(A J).
   {
-    const double k = 2.0 * J * v0 - a0_2;
-    const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared + 12.0 * J_2 * v0_2 -
-                                12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
-                            24.0 * A * k, 12.0 * (A * A + k), 24.0 * A, 12.0};
     // x <= -x_min (an early turn, the peak check not applying) or x in [x_min, x_max].
     const double x_min = std::sqrt(std::max(A * A - c - margin, 0.0));
     const double x_max = std::min(A, std::sqrt(std::max(peak_sq, 0.0)));
     const double lo = std::max(a0, -A);
-    std::array<double, 2 * 4> split_roots{};  // up to four in each part
-    int n = 0;
-    if (x_min > 0.0) n = real_roots<4>(coef, lo, -x_min, split_roots.data());
-    n += real_roots<4>(coef, x_min > 0.0 ? std::max(lo, x_min) : lo, x_max, split_roots.data() + n);
-    for (int i = 0; i < n; ++i) {
-      const double x = split_roots[static_cast<std::size_t>(i)];
-      const double t5 = (x * x - A * A + c) / (A * J);
-      if (t5 < -kTimeTolerance) continue;
-      const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
-      if (peak > v_lim) continue;
-      add((x - a0) / J + (x + A) / J + std::max(t5, 0.0) + A / J, (x - a0) / J, 0.0, peak);
+    if (lo <= -x_min || (x_min > 0.0 ? std::max(lo, x_min) : lo) <= x_max) {
+      const double k = 2.0 * J * v0 - a0_2;
+      const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared + 12.0 * J_2 * v0_2 -
+                                  12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
+                              24.0 * A * k, 12.0 * (A * A + k), 24.0 * A, 12.0};
+      std::array<double, 2 * 4> split_roots{};  // up to four in each part
+      int n = 0;
+      if (x_min > 0.0) n = real_roots<4>(coef, lo, -x_min, split_roots.data());
+      n += real_roots<4>(coef, x_min > 0.0 ? std::max(lo, x_min) : lo, x_max, split_roots.data() + n);
+      for (int i = 0; i < n; ++i) {
+        const double x = split_roots[static_cast<std::size_t>(i)];
+        const double t5 = (x * x - A * A + c) / (A * J);
+        if (t5 < -kTimeTolerance) continue;
+        const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
+        if (peak > v_lim) continue;
+        add((x - a0) / J + (x + A) / J + std::max(t5, 0.0) + A / J, (x - a0) / J, 0.0, peak);
+      }
     }
   }
   // ACC0_ACC1: x = A, z = -A; unknown t1 >= 0; t5 = t1 + c/(A J).
-  {
+  // Its peak velocity is at least (A^2 + c)/J (ACC0 too): skipped when that is beyond v_lim.
+  if (A * A + c <= J * v_lim + margin) {
     const double coef[3] = {48.0 * A * A * A * A + 84.0 * A * A * J * v0 - 42.0 * A * A * a0_2 + shared +
                                 12.0 * J_2 * v0_2 - 12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
                             24.0 * A * J * (3.0 * A * A + 2.0 * J * v0 - a0_2), 24.0 * A * A * J_2};
