@@ -228,17 +228,20 @@ double polish_none(double x, double lo, double hi, double v0, double a0, double 
 }
 
 //! A candidate profile after the braking pre-phase, in the frame mirrored so that its first jerk is
-//! +j_max (jerk_sign -1 undoes the mirror). Either a no-cruise UDDU profile given by its head, jerk
-//! J for t0 and a plateau t1, followed by the time-optimal stop from the state reached; or a cruise
-//! member: the time-optimal change to cruise_velocity, a cruise, and the change to rest.
+//! +j_max (jerk_sign -1 undoes the mirror): a head (jerk J for t0, a plateau t1, jerk -J for t2), a
+//! cruise of cruise_s, and the time-optimal stop from the state reached. For a no-cruise profile
+//! the head is its first ramp and plateau (for UDUD also the ramp to zero acceleration); for a
+//! cruise member it is the time-optimal change to the cruise velocity, kept from the solving so
+//! that building does not compute it again.
 //! No default member values: every candidate is written in full when added, and the unused slots
 //! of Candidates are then left unwritten (initialising all of them cost more than the solving).
 struct Candidate {
   double duration_s;
-  double t0_s, t1_s;       //!< head of a no-cruise profile [s]
-  double t2_s;             //!< [s] UDUD only: the -J ramp of the head to zero acceleration
-  double cruise_velocity;  //!< [m/s], 0 for a no-cruise profile
-  double cruise_s;         //!< [s]
+  double t0_s, t1_s, t2_s;  //!< [s] the head's phases
+  //! +1, or -1 when the head's first ramp has jerk -J (a change to the cruise velocity whose start
+  //! rounding put above it)
+  double head_sign;
+  double cruise_s;  //!< [s], 0 for a no-cruise profile
   double jerk_sign;
   //! [m/s] (mirrored) velocity where the acceleration passes through zero between the change to
   //! it and the change to rest (> 0 for UDDU, < 0 for UDUD); 0 for an early turn, which has none.
@@ -275,7 +278,7 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   const double v_lim = v_max * (1.0 + kLimitTolerance);
   std::array<double, kMaxDegree> roots{};
   const auto add = [&](double duration, double t0, double t1, double peak_velocity) {
-    out.add({duration, std::max(t0, 0.0), std::max(t1, 0.0), 0.0, 0.0, 0.0, jerk_sign, peak_velocity, false});
+    out.add({duration, std::max(t0, 0.0), std::max(t1, 0.0), 0.0, 1.0, 0.0, jerk_sign, peak_velocity, false});
   };
   const double a0_2 = a0 * a0, a0_3 = a0_2 * a0, J_2 = J * J, v0_2 = v0 * v0;
   // Terms of the position equation shared by the plateau types.
@@ -296,8 +299,8 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
     const JointState end = apply(apply({0.0, v0, a0}, c1), c2);
     const double cruise = (d - end.position) / v_max;
     if (cruise >= 0.0) {
-      out.add({c1.t1 + c1.t2 + c1.t3 + cruise + c2.t1 + c2.t2 + c2.t3, 0.0, 0.0, 0.0, v_max, cruise, jerk_sign, v_max,
-               false});
+      out.add({c1.t1 + c1.t2 + c1.t3 + cruise + c2.t1 + c2.t2 + c2.t3, c1.t1, c1.t2, c1.t3, c1.jerk > 0.0 ? 1.0 : -1.0,
+               cruise, jerk_sign, v_max, false});
     }
   }
   // NONE: unknown x in [a0, A] with x^2 + c in [0, A^2]; the position is P(x) + z Q(x) = d with
@@ -465,7 +468,7 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   std::array<double, kMaxDegree> roots{};
   const double a0_2 = a0 * a0, a0_3 = a0_2 * a0, J_2 = J * J, v0_2 = v0 * v0;
   const auto add = [&](double duration, double t0, double t1, double t2, double peak_velocity) {
-    out.add({duration, std::max(t0, 0.0), std::max(t1, 0.0), std::max(t2, 0.0), 0.0, 0.0, jerk_sign, peak_velocity,
+    out.add({duration, std::max(t0, 0.0), std::max(t1, 0.0), std::max(t2, 0.0), 1.0, 0.0, jerk_sign, peak_velocity,
              false});
   };
   // Velocity at the zero acceleration between the ramps, after a plateau of t1 at A.
@@ -534,21 +537,14 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   }
 }
 
-//! Appends the candidate's phases to `out` (which ends in the state `s`, its acceleration clamped) and
-//! checks the end state. The stop (or change to rest) is built from the state actually reached, so
-//! it ends at zero velocity and acceleration exactly; a cruise is re-timed once from the position
-//! error, so that a velocity rounding error is not multiplied by a long cruise.
-bool build(const Candidate& c, const JointState& s, double target_position, const JointLimits& lim,
-           Profile& out) noexcept {
+//! Appends the candidate's phases to `out` (which ends after the braking pre-phase) and checks the
+//! end state. The stop (or change to rest) is built from the state actually reached, so it ends at
+//! zero velocity and acceleration exactly; a cruise is re-timed once from the position error, so
+//! that a velocity rounding error is not multiplied by a long cruise.
+bool build(const Candidate& c, double target_position, const JointLimits& lim, Profile& out) noexcept {
   const double a_max = lim.max_acceleration, j_max = lim.max_jerk;
-  const double jerk = c.jerk_sign * j_max;
-  if (c.cruise_velocity != 0.0) {
-    const VelocityChange c1 =
-        velocity_change(s.velocity, s.acceleration, c.jerk_sign * c.cruise_velocity, a_max, j_max);
-    if (!(out.append(c1.t1, c1.jerk) && out.append(c1.t2, 0.0) && out.append(c1.t3, -c1.jerk))) return false;
-  } else if (!(out.append(c.t0_s, jerk) && out.append(c.t1_s, 0.0) && out.append(c.t2_s, -jerk))) {
-    return false;
-  }
+  const double jerk = c.jerk_sign * c.head_sign * j_max;
+  if (!(out.append(c.t0_s, jerk) && out.append(c.t1_s, 0.0) && out.append(c.t2_s, -jerk))) return false;
   const std::size_t cruise_index = out.phase_count();
   // The re-timing changes only the cruise, so the stop after it is the same in both passes.
   JointState head = out.end_state();
@@ -651,7 +647,7 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
     // A target where the stop ends: every type below meets it only at the end of its interval (a
     // ramp of zero length), where rounding may lose it. No move to rest is faster.
     if (std::abs(stop_distance - d) <= 1e-9) {
-      candidates.add({stop.t1 + stop.t2 + stop.t3, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, false});
+      candidates.add({stop.t1 + stop.t2 + stop.t3, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, false});
     }
     uddu_candidates(side * s.velocity, side * s.acceleration, side * d, limits, side, candidates);
     // A stretch needs every no-cruise profile whose zero-acceleration velocity points to `side`
@@ -675,7 +671,7 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
       if (best == nullptr) break;
       best->tried = true;
       out.truncate(brake_phases);
-      built = build(*best, s, target_position, limits, out);
+      built = build(*best, target_position, limits, out);
     }
   }
   if (!built) {
