@@ -49,6 +49,10 @@ JointState apply(const JointState& s, const VelocityChange& c) noexcept {
   return advance(advance(advance(s, c.jerk, c.t1), 0.0, c.t2), -c.jerk, c.t3);
 }
 
+//! Distance of the change c from (v, 0) to rest: its velocity is point-symmetric about the
+//! change's middle, so it covers v/2 times the change's duration (no need to integrate the phases).
+double distance_to_rest(double v, const VelocityChange& c) noexcept { return v * (c.t1 + c.t2 + c.t3) / 2.0; }
+
 //! Real roots in [lo, hi] of c[0] + c[1] x + ... + c[n] x^n, n <= 6, ascending, written to out (room
 //! for n). Each root is isolated between consecutive critical points (the derivative's roots,
 //! found the same way) and polished by Newton steps kept inside its bracket, so clustered and
@@ -296,8 +300,8 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   {
     const VelocityChange c1 = velocity_change(v0, a0, v_max, A, J);
     const VelocityChange c2 = velocity_change(v_max, 0.0, 0.0, A, J);
-    const JointState end = apply(apply({0.0, v0, a0}, c1), c2);
-    const double cruise = (d - end.position) / v_max;
+    const double changes_distance = apply({0.0, v0, a0}, c1).position + distance_to_rest(v_max, c2);
+    const double cruise = (d - changes_distance) / v_max;
     if (cruise >= 0.0) {
       out.add({c1.t1 + c1.t2 + c1.t3 + cruise + c2.t1 + c2.t2 + c2.t3, c1.t1, c1.t2, c1.t3, c1.jerk > 0.0 ? 1.0 : -1.0,
                cruise, jerk_sign, v_max, false});
@@ -707,7 +711,8 @@ double stretch_error(const Stretch& st, const JointLimits& lim, double u, double
                                             lim.max_jerk);
   const VelocityChange c2 = velocity_change(vp, 0.0, 0.0, lim.max_acceleration, lim.max_jerk);
   const double changes_s = c1.t1 + c1.t2 + c1.t3 + c2.t1 + c2.t2 + c2.t3;
-  const double distance = apply(apply({0.0, st.start.velocity, st.start.acceleration}, c1), c2).position;
+  const double distance =
+      apply({0.0, st.start.velocity, st.start.acceleration}, c1).position + distance_to_rest(vp, c2);
   return st.side * (distance + vp * (after_s - changes_s) - st.distance);
 }
 
