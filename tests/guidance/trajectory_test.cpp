@@ -159,6 +159,51 @@ TEST_CASE("the duration equals the brute-force time-optimal one", "[oracle]") {
   CHECK(worse == 0);
 }
 
+// The solver searches each profile type only where that type's checks can hold (the peak velocity
+// at most v_max, no plateau shorter than zero), so targets where the time-optimal profile changes
+// type test those bounds: where the cruise at v_max just vanishes, where the plateau at -a_max of
+// the change to rest just vanishes, and where that of the change from the start does, each exactly
+// and just either side, in both directions.
+TEST_CASE("targets where the profile type changes match the brute-force reference", "[oracle]") {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto log_uniform = [&](double lo, double hi) { return lo * std::pow(hi / lo, unit(rng)); };
+  Profile profile;
+  int checked = 0;
+  for (int n = 0; n < 40; ++n) {
+    JointLimits lim;
+    lim.max_jerk = log_uniform(0.1, 100.0);
+    lim.max_acceleration = lim.max_jerk * log_uniform(0.05, 5.0);
+    lim.max_velocity = lim.max_acceleration * log_uniform(0.05, 5.0);
+    const double J = lim.max_jerk, A = lim.max_acceleration, v_max = lim.max_velocity;
+    const double v0 = (2.0 * unit(rng) - 1.0) * 0.8 * v_max, a0 = (2.0 * unit(rng) - 1.0) * 0.8 * A;
+    if (std::abs(v0 + a0 * std::abs(a0) / (2.0 * J)) > v_max) continue;  // would brake first
+    const mgc::test::RefProblem base{v0, a0, 0.0, v_max, A, J};
+    for (const double vp : {v_max, A * A / J, v0 + (A * A - a0 * a0 / 2.0) / J}) {
+      if (!(vp > 0.0 && vp <= v_max)) continue;
+      const double boundary = base.member(vp).distance;
+      for (const double factor : {1.0 - 1e-6, 1.0, 1.0 + 1e-6}) {
+        for (const double sign : {1.0, -1.0}) {
+          const JointState start{0.0, sign * v0, sign * a0};
+          const double target = sign * factor * boundary;
+          REQUIRE(calculate_time_optimal(start, target, lim, profile).ok());
+          REQUIRE(profile.brake_phase_count == 0);
+          const mgc::test::RefProblem ref{sign * v0, sign * a0, target, v_max, A, J};
+          const double expected = ref.min_duration();
+          const JointState& end = profile.end_state();
+          CAPTURE(n, vp, factor, sign, v0, a0, target, v_max, A, J, profile.duration(), expected);
+          CHECK(std::abs(end.position - target) <= 1e-8);
+          CHECK(std::abs(end.velocity) <= 1e-9);
+          CHECK(std::abs(end.acceleration) <= 1e-9);
+          CHECK(std::abs(profile.duration() - expected) <= 1e-9 * std::max(expected, 1e-3));
+          ++checked;
+        }
+      }
+    }
+  }
+  CHECK(checked > 300);
+}
+
 TEST_CASE("invalid input is refused with the offending field", "[unit]") {
   Profile profile;
   const JointState rest{};
