@@ -551,20 +551,18 @@ bool build(const Candidate& c, double target_position, const JointLimits& lim, P
   const double a_max = lim.max_acceleration, j_max = lim.max_jerk;
   const double jerk = c.jerk_sign * c.head_sign * j_max;
   if (!(out.append(c.t0_s, jerk) && out.append(c.t1_s, 0.0) && out.append(c.t2_s, -jerk))) return false;
-  const std::size_t cruise_index = out.phase_count();
-  // The re-timing changes only the cruise, so the stop after it is the same in both passes.
   JointState head = out.end_state();
   head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
   const VelocityChange stop = velocity_change(head.velocity, head.acceleration, 0.0, a_max, j_max);
   double cruise = c.cruise_s;
-  bool appended = true;
-  for (int pass = 0; pass < 2; ++pass) {
-    out.truncate(cruise_index);
-    appended = out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
-               out.append(stop.t3, -stop.jerk);
-    if (!(cruise > 0.0)) break;
-    cruise = std::max(cruise - (out.end_state().position - target_position) / head.velocity, 0.0);
+  if (cruise > 0.0) {
+    // The re-timing changes only the cruise, so the stop is the same after it. The end position is
+    // integrated as append will, without appending the phases only to drop them again.
+    const JointState end = apply(advance(out.end_state(), 0.0, cruise), stop);
+    cruise = std::max(cruise - (end.position - target_position) / head.velocity, 0.0);
   }
+  const bool appended = out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
+                        out.append(stop.t3, -stop.jerk);
   const JointState& end = out.end_state();
   return appended && std::abs(end.position - target_position) <= 1e-8 && std::abs(end.velocity) <= 1e-9 &&
          std::abs(end.acceleration) <= 1e-9;
