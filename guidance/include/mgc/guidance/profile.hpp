@@ -25,7 +25,9 @@ struct JointSample {
 //! as is Profile::append: a trajectory calculation calls them a dozen times or more.
 [[nodiscard]] inline JointState advance(const JointState& s, double jerk, double t_s) noexcept {
   const double t = t_s;
-  return {s.position + t * (s.velocity + t * (s.acceleration / 2.0 + t * jerk / 6.0)),
+  // Times 1/6 rather than divided by 6 (a division per call, a dozen calls per trajectory
+  // calculation): the term then differs by at most a rounding.
+  return {s.position + t * (s.velocity + t * (s.acceleration / 2.0 + t * jerk * (1.0 / 6.0))),
           s.velocity + t * (s.acceleration + t * jerk / 2.0), s.acceleration + t * jerk};
 }
 
