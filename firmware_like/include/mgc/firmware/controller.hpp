@@ -69,9 +69,10 @@ struct ControllerConfig {
   //! Iteration cap of an escape plan and of its repairs (at least the scenario's caps). [-]
   int escape_max_iterations = 20000;
   //! Planner iterations per cycle of an escape: its hard query makes an iteration up to 20 times
-  //! dearer than a first plan's (mgc-bench loop, intrusion sweep: 2 ms for 10), so fewer per cycle
-  //! keep the cycle under its 1 ms; the machine is at rest meanwhile. [-]
-  int escape_iterations_per_cycle = 4;
+  //! dearer than a first plan's (mgc-bench loop, intrusion sweep: 2 ms of thread CPU for 10,
+  //! 0.96 ms for 4, 0.7 ms for 3), so few per cycle keep the cycle well under its 1 ms; the
+  //! machine is at rest meanwhile. [-]
+  int escape_iterations_per_cycle = 3;
   //! Where not even the escape planner accepts the stopped machine as a start, one joint moves it
   //! out first (planning::RetreatSearch, docs/controller.md "Retreat"), measured against the stop
   //! check's world and ending valid in the escape world.
