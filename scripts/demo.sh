@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # The main job: the controller at work. mgc-sim puts the Grove TMS870 of the thesis steel-frame
-# site on a CAN bus (UDP on loopback); mgc runs the control loop against it; an operator station
-# (mgc-operator) requests the lift with a signed command and shows the guidance and alerts as they
-# come over LCM, while the second crane swings into the lift's path mid-way. At the end: mgc's
-# transitions and summary (lift completed, duration, re-plans, stops, least clearance, alerts, loop
-# timing), mgc-sim's truth line (the true crane's least clearance, measured by the simulator, not
-# the controller), an SVG of what happened (build/demo/lift.svg), the LCM log
-# (build/demo/mgc.lcmlog), the controller's trace and the true machine state (CSV).
+# site on a CAN bus (SocketCAN when a CAN interface is up, else UDP on loopback); mgc runs the
+# control loop against it; an operator station (mgc-operator) requests the lift with a signed
+# command and shows the guidance and alerts as they come over LCM, while the second crane swings
+# into the lift's path mid-way. At the end: mgc's transitions and summary (lift completed,
+# duration, re-plans, stops, least clearance, alerts, loop timing), mgc-sim's truth line (the
+# true crane's least clearance, measured by the simulator, not the controller), an SVG of what
+# happened (build/demo/lift.svg), the LCM log (build/demo/mgc.lcmlog), the controller's trace and
+# the true machine state (CSV).
 # Then, offline: every shipped scenario loaded, checked and planned (the thesis's planner limcon;
 # the two-crane lifts with multi-rrt; the excavator's work cycle with nonuniform), and the event
 # scenarios executed with re-planning (mgc-bench's replan suite, two seeds). Installs missing
@@ -22,6 +23,19 @@ mkdir -p "$out"
 status=0
 
 site="$MGC_ROOT/scenarios/thesis-steel-frame.yaml"
+# The default transport: SocketCAN when a CAN interface is up (a vcan; on a real bus the machine's
+# own nodes must not be on it, since mgc-sim plays them), else UDP on loopback. MGC_DEMO_BUS=udp
+# keeps UDP even then.
+can_if=""
+[ "${MGC_DEMO_BUS:-}" = udp ] || can_if="$(mgc_can_interface)"
+sim_bus=()
+mgc_bus=()
+transport="UDP on loopback"
+if [ -n "$can_if" ]; then
+  sim_bus=(--bus "socketcan:$can_if")
+  mgc_bus=(--bus "socketcan:$can_if")
+  transport="SocketCAN on $can_if"
+fi
 lcm_url="udpm://239.255.76.67:7667?ttl=0"
 key="$out/operator.key"
 (umask 077 && head -c 32 /dev/urandom >"$key")
@@ -33,14 +47,14 @@ if chrt -f 1 true 2>/dev/null; then
   sim_rt=(chrt -f 40)
   mgc_rt=(--fifo-priority 50 --mlock)
 fi
-echo "=== the lift on the thesis steel-frame site: mgc-sim (UDP on loopback) + mgc + mgc-operator over LCM"
+echo "=== the lift on the thesis steel-frame site: mgc-sim ($transport) + mgc + mgc-operator over LCM"
 echo "    crane 2 swings its boom across the west route 20-44 s into the lift (mgc-sim --scenario-time-offset 40)"
 lcm-logger -q -f --lcm-url="$lcm_url" "$out/mgc.lcmlog" &
 logger_pid=$!
-"${sim_rt[@]}" "$bin/mgc-sim" --scenario "$site" --scenario-time-offset 40 --duration 620 --quiet \
+"${sim_rt[@]}" "$bin/mgc-sim" --scenario "$site" "${sim_bus[@]}" --scenario-time-offset 40 --duration 620 --quiet \
   --truth-csv "$out/truth.csv" >"$out/sim.txt" &
 sim_pid=$!
-"$bin/mgc" --scenario "$site" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 600 \
+"$bin/mgc" --scenario "$site" "${mgc_bus[@]}" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 600 \
   --trace-csv "$out/trace.csv" "${mgc_rt[@]}" >"$out/mgc.txt" 2>&1 &
 mgc_pid=$!
 "$bin/mgc-operator" --key "$key" --lcm-url "$lcm_url" --scenario "$site" --goal --watch 600 --until-done || status=$?

@@ -29,6 +29,22 @@ mgc_install_packages() {
   DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# mgc_can_interface [net folder]: prints the name of the first network interface that is a CAN
+# interface (ARPHRD_CAN, type 280: a vcan or a real bus) and is up (IFF_UP); nothing when there is
+# none. The folder defaults to /sys/class/net; tests point it at a made-up one.
+mgc_can_interface() {
+  local net="${1:-/sys/class/net}" dev type flags
+  for dev in "$net"/*; do
+    type="$(cat "$dev/type" 2>/dev/null)" || continue
+    [ "$type" = 280 ] || continue
+    flags="$(cat "$dev/flags" 2>/dev/null)" || continue
+    [[ $flags =~ ^0x[0-9a-fA-F]+$ ]] || continue
+    (( flags & 0x1 )) || continue
+    basename "$dev"
+    return 0
+  done
+}
+
 # mgc_build [target...]: configures build/ (tests included) and builds the targets, or all.
 mgc_build() {
   cmake -S "$MGC_ROOT" -B "$MGC_BUILD_DIR" -DCMAKE_BUILD_TYPE="${MGC_BUILD_TYPE:-RelWithDebInfo}" -DMGC_BUILD_TESTS=ON
