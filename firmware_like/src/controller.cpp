@@ -190,10 +190,12 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   if (!(config.obstacle_speed_floor_m_s >= 0.0) || config.obstacle_speed_window_us <= 0) {
     throw std::invalid_argument("controller: obstacle_speed_floor_m_s must be >= 0 and obstacle_speed_window_us > 0");
   }
-  for (const auto& d : scenario_.dynamic_obstacles) {
+  for (std::size_t i = 0; i < scenario_.dynamic_obstacles.size(); ++i) {
+    const planning::DynamicObstacleSpec& d = scenario_.dynamic_obstacles[i];
     if (d.tags.empty()) continue;
     trackers_.emplace_back(d, config.tracker);
     PoseHistory h;
+    h.obstacle = static_cast<int>(i);
     for (const planning::ShapePart& part : d.obstacle.parts) {
       const double reach = part.kind == planning::ShapeKind::Mesh ? 0.0 : 0.5 * part.size_m.norm();
       h.radius_m = std::max(h.radius_m, part.pose.translation().norm() + reach);
@@ -290,16 +292,14 @@ void Controller::estimate(const hal::SensorSnapshot& s, double dt_s) noexcept {
 }
 
 void Controller::track_obstacles(const hal::SensorSnapshot& s) noexcept {
-  std::size_t t = 0;
-  for (std::size_t d = 0; d < scenario_.dynamic_obstacles.size(); ++d) {
-    if (scenario_.dynamic_obstacles[d].tags.empty()) continue;
+  for (std::size_t t = 0; t < trackers_.size(); ++t) {
     PoseHistory& h = histories_[t];
-    ObstacleTracker& tracker = trackers_[t++];
+    ObstacleTracker& tracker = trackers_[t];
     if (tracker.update(s, now_us_)) {
       const Eigen::Isometry3d pose = tracker.pose();
-      plan_world_->set_dynamic_pose(static_cast<int>(d), pose);
-      escape_world_->set_dynamic_pose(static_cast<int>(d), pose);
-      safety_world_->set_dynamic_pose(static_cast<int>(d), pose);
+      plan_world_->set_dynamic_pose(h.obstacle, pose);
+      escape_world_->set_dynamic_pose(h.obstacle, pose);
+      safety_world_->set_dynamic_pose(h.obstacle, pose);
       const std::int64_t spacing_us = config_.obstacle_speed_window_us / static_cast<std::int64_t>(PoseHistory::kSamples - 1);
       const std::size_t newest = (h.head + PoseHistory::kSamples - 1) % PoseHistory::kSamples;
       if (h.count == 0 || now_us_ - h.t_us[newest] >= spacing_us) {
@@ -399,25 +399,19 @@ void Controller::predict_approach() noexcept {
   // tracked velocity and slew rate (a slewing crane turns about its mast, its frame's origin),
   // the machine where it stands. The tracked poses are put back at once for the next stop check.
   const double tau_s = ++approach_step_ * config_.approach_step_s;
-  std::size_t t = 0;
-  for (std::size_t d = 0; d < scenario_.dynamic_obstacles.size(); ++d) {
-    if (scenario_.dynamic_obstacles[d].tags.empty()) continue;
+  for (std::size_t t = 0; t < trackers_.size(); ++t) {
     const PoseHistory& h = histories_[t];
-    const ObstacleTracker& tracker = trackers_[t++];
     if (!obstacle_moving(h)) continue;
     Eigen::Isometry3d predicted = Eigen::Isometry3d::Identity();
-    predicted.translate(tracker.position_m() + h.velocity_m_s * tau_s);
-    predicted.rotate(Eigen::AngleAxisd(tracker.yaw_rad() + h.yaw_rate_rad_s * tau_s, Eigen::Vector3d::UnitZ()));
-    safety_world_->set_dynamic_pose(static_cast<int>(d), predicted);
+    predicted.translate(trackers_[t].position_m() + h.velocity_m_s * tau_s);
+    predicted.rotate(Eigen::AngleAxisd(trackers_[t].yaw_rad() + h.yaw_rate_rad_s * tau_s, Eigen::Vector3d::UnitZ()));
+    safety_world_->set_dynamic_pose(h.obstacle, predicted);
   }
   const double margin_m = config_.stop_check.stop_margin_m;
   const planning::Clearance near =
       safety_world_->nearest_below(q_wrapped_, planning::CollisionWorld::Bodies::All, 0.0, margin_m).dynamic_obstacle;
-  t = 0;
-  for (std::size_t d = 0; d < scenario_.dynamic_obstacles.size(); ++d) {
-    if (scenario_.dynamic_obstacles[d].tags.empty()) continue;
-    const ObstacleTracker& tracker = trackers_[t];
-    if (obstacle_moving(histories_[t++])) safety_world_->set_dynamic_pose(static_cast<int>(d), tracker.pose());
+  for (std::size_t t = 0; t < trackers_.size(); ++t) {
+    if (obstacle_moving(histories_[t])) safety_world_->set_dynamic_pose(histories_[t].obstacle, trackers_[t].pose());
   }
   const bool within = near.with == planning::Contact::With::Dynamic && near.distance_m < margin_m;
   // The earliest pose within the margin ends the scan; a scan that finds none clears the warning.

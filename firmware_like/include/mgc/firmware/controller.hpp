@@ -251,6 +251,7 @@ class Controller {
     std::array<std::int64_t, kSamples> t_us{};
     std::array<Eigen::Vector3d, kSamples> position_m{};
     std::array<double, kSamples> yaw_rad{};
+    int obstacle = -1;           //!< its index among the scenario's dynamic obstacles (and the worlds')
     std::size_t count = 0;
     std::size_t head = 0;        //!< next slot to write
     double radius_m = 0.0;       //!< farthest point of the obstacle from its frame origin
