@@ -97,8 +97,8 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     double dt_s = 0.0;
     bool reaches = false;
   };
-  const auto move_toward = [&](const JointVector& target) {
-    const JointVector delta = model.difference(q, target);
+  const auto move_toward = [&](const JointVector& from, const JointVector& target) {
+    const JointVector delta = model.difference(from, target);
     double needed_s = 0.0;
     for (int i = 0; i < model.dof(); ++i) {
       needed_s = std::max(needed_s, std::abs(delta[i]) / model.joints()[static_cast<std::size_t>(i)].max_velocity);
@@ -106,30 +106,105 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     Move m;
     m.reaches = needed_s <= settings.tick_s;
     m.dt_s = m.reaches ? needed_s : settings.tick_s;
-    m.to = m.reaches ? target : model.interpolate(q, target, m.dt_s / needed_s);
+    m.to = m.reaches ? target : model.interpolate(from, target, m.dt_s / needed_s);
     return m;
   };
   const auto inside_prediction = [&] {
     pose_obstacles(t_s, horizon_s);
     return world.hits_dynamic(q);
   };
-  // Back along the executed motion, checked against the present poses, until the machine stands
-  // clear of the prediction: from inside it no path can keep clear of where the obstacle is going.
-  const auto retreat = [&]() {
-    double retreated_s = 0.0;
+  // Ways out of the prediction: back along the executed motion, or one joint alone at its speed
+  // limit either way (2n + 1 candidates). Each is simulated tick by tick before the machine takes
+  // it, every move checked against the obstacles' scripted poses at its end; a joint move also
+  // against the static site and the constraints at the planner's step (the way back is statically
+  // valid already). The candidate that stands clear of the prediction soonest is taken; when none
+  // does within the horizon, the machine backs off along its executed motion as far as it can,
+  // since from inside the prediction no path can keep clear of where the obstacle is going.
+  struct Trial {
+    std::vector<ExecutedState> states;  //!< scenario time and configuration after each move
+    std::vector<JointVector> came_from;
+    bool clear = false;
+  };
+  Trial trial;
+  Trial best;
+  const auto simulate = [&](int candidate, double limit_s) {
+    trial.states.clear();
+    trial.came_from = came_from;
+    trial.clear = false;
+    JointVector at = q;
+    double at_s = t_s;
+    const int joint = (candidate - 1) / 2;
+    const double sign = candidate % 2 == 1 ? 1.0 : -1.0;
     Contact contact;
-    while (came_from.size() > 0 && t_s <= settings.time_limit_s && inside_prediction()) {
-      const Move m = move_toward(came_from.back());
-      pose_obstacles(t_s + m.dt_s, 0.0);
-      if (hits_dynamic_along(world, model, q, m.to, contact)) break;
-      q = m.to;
-      t_s += m.dt_s;
-      retreated_s += m.dt_s;
-      if (m.reaches && came_from.size() > 1) came_from.pop_back();
-      reached(q);
-      if (m.reaches && came_from.size() == 1 && q == came_from.front()) break;
+    while (at_s - t_s < limit_s && at_s <= settings.time_limit_s) {
+      Move m;
+      if (candidate == 0) {
+        if (trial.came_from.size() == 1 && at == trial.came_from.front()) break;
+        m = move_toward(at, trial.came_from.back());
+      } else {
+        const JointSpec& spec = model.joints()[static_cast<std::size_t>(joint)];
+        m.to = at;
+        m.to[joint] += sign * spec.max_velocity * settings.tick_s;
+        if (spec.continuous) {
+          m.to[joint] = wrap_angle(m.to[joint]);
+        } else {
+          m.to[joint] = std::clamp(m.to[joint], spec.position_min, spec.position_max);
+        }
+        if (m.to == at) break;
+        m.dt_s = settings.tick_s;
+      }
+      pose_obstacles(at_s + m.dt_s, 0.0);
+      if (hits_dynamic_along(world, model, at, m.to, contact)) break;
+      if (candidate != 0 && !world.validate_edge(at, m.to, problem.step).valid()) break;
+      at = m.to;
+      at_s += m.dt_s;
+      trial.states.push_back({at_s, at});
+      if (candidate == 0 && m.reaches && trial.came_from.size() > 1) trial.came_from.pop_back();
+      pose_obstacles(at_s, horizon_s);
+      if (!world.hits_dynamic(at)) {
+        trial.clear = true;
+        break;
+      }
     }
-    return retreated_s;
+    if (candidate != 0 && !trial.states.empty() && trial.came_from.back() != q) trial.came_from.push_back(q);
+  };
+  const auto escape = [&](RepairEvent* event) {
+    if (predicted == 0 || !inside_prediction()) return;
+    const double search_start_ms = now_ms();
+    best.states.clear();
+    best.clear = false;
+    int best_candidate = -1;
+    for (int candidate = 0; candidate <= 2 * model.dof(); ++candidate) {
+      const double limit_s = best.clear ? best.states.back().t_s - t_s : horizon_s;
+      simulate(candidate, limit_s);
+      const bool better = trial.clear ? !best.clear || trial.states.back().t_s < best.states.back().t_s
+                                      : candidate == 0 && !trial.states.empty();
+      if (better) {
+        std::swap(best, trial);
+        best_candidate = candidate;
+      }
+    }
+    const double search_ms = now_ms() - search_start_ms;
+    const double from_s = t_s;
+    for (const ExecutedState& state : best.states) {
+      t_s = state.t_s;
+      q = state.q;
+      reached(q);
+    }
+    if (!best.states.empty()) came_from = best.came_from;
+    if (event != nullptr) {
+      event->retreat_s += t_s - from_s;
+      event->escape_ms += search_ms;
+      if (best_candidate > 0) event->escape_joint = (best_candidate - 1) / 2;
+    }
+  };
+  // Holds for hold_s in ticks, keeping clear of the prediction.
+  const auto hold = [&](double hold_s) {
+    for (double held_s = 0.0; held_s < hold_s; held_s += settings.tick_s) {
+      escape(nullptr);
+      t_s += settings.tick_s;
+      reached(q);
+    }
   };
   reached(q);
 
@@ -140,7 +215,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
       break;
     }
     if (t_s > settings.time_limit_s) break;
-    const Move m = move_toward(path[next]);
+    const Move m = move_toward(q, path[next]);
 
     // Update-Environment, then check the move (seed 000 Fig. 8 lines 8-9): the poses at the
     // move's end, which the repair then sees too. Obstacles here move centimetres per tick.
@@ -162,13 +237,12 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     // repairs either, so wait a tick rather than repair against the same poses once more.
     repairs_in_place = t_s == last_repair_s ? repairs_in_place + 1 : 0;
     if (repairs_in_place >= 3) {
-      t_s += settings.tick_s;
-      reached(q);
+      hold(settings.tick_s);
       continue;
     }
     RepairEvent event;
     event.obstacle = contact.with == Contact::With::Dynamic ? contact.other : -1;
-    if (predicted > 0 && !escaping) event.retreat_s = retreat();
+    if (!escaping) escape(&event);
     event.t_s = t_s;
     event.at = q;
     pose_obstacles(t_s, escaping ? 0.0 : horizon_s);
@@ -197,11 +271,8 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
       event.path_nodes = static_cast<int>(replanner.path().size());
       if (settings.record_trajectory) event.path = replanner.path();
     } else {
-      // Hold where it stopped and look again once the obstacles have moved on.
-      for (double held_s = 0.0; held_s < settings.hold_s; held_s += settings.tick_s) {
-        t_s += settings.tick_s;
-        reached(q);
-      }
+      // Hold, clear of the prediction, and look again once the obstacles have moved on.
+      hold(settings.hold_s);
     }
     result.repairs.push_back(event);
   }

@@ -170,6 +170,56 @@ TEST_CASE("drrt-con-con-mod completes the lift past the swinging crane, every mo
   CHECK(t.repaired == t.repairs);
 }
 
+TEST_CASE("a machine inside the prediction takes the quickest way out, here one joint alone", "[replan]") {
+  // Seed 34 from the start of the script: crane 2's prediction covers our stopped crane at 76 s,
+  // and backing off along the executed motion stays inside it until crane 2 runs into the machine
+  // (125 states in contact before the machine could choose another way). Slewing away gets out.
+  Checker checker("thesis-steel-frame.yaml");
+  Site site = load_site("thesis-steel-frame.yaml", 34);
+  auto replanner = make_replanner("drrt-con-con-mod");
+  const ExecutionResult r = execute_with_replanning(site.loaded.scenario, site.problem, *replanner,
+                                                    replan_settings(site.loaded.scenario), execution_settings());
+  REQUIRE(r.first_plan == PlannerStatus::Solved);
+  CHECK(r.outcome == ExecutionResult::Outcome::Arrived);
+  CHECK(r.contact_states == 0);
+  checker.executed(r);
+
+  CollisionWorld& world = *site.loaded.world;
+  const int copies = kPredictedPoses + 1;
+  const auto inside_prediction = [&](const JointVector& q, double t_s) {
+    for (int i = 0; i < world.num_dynamic(); ++i) {
+      const double ahead_s = kHorizonS * (i % copies) / kPredictedPoses;
+      world.set_dynamic_pose(i, site.loaded.scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)].pose_at(t_s + ahead_s));
+    }
+    return world.hits_dynamic(q);
+  };
+  int by_joint = 0;
+  for (const RepairEvent& e : r.repairs) {
+    if (e.retreat_s <= 0.0) continue;
+    CAPTURE(e.t_s, e.retreat_s, e.escape_joint);
+    // It repairs from where it stands clear of where crane 2 is going.
+    CHECK_FALSE(inside_prediction(e.at, e.t_s));
+    if (e.escape_joint < 0) continue;
+    ++by_joint;
+    // On the way out only that joint moved.
+    const double from_s = e.t_s - e.retreat_s - 1e-9;
+    const ExecutedState* previous = nullptr;
+    for (const ExecutedState& state : r.trajectory) {
+      if (state.t_s < from_s || state.t_s > e.t_s) continue;
+      if (previous != nullptr) {
+        const JointVector d = site.loaded.model->difference(previous->q, state.q);
+        for (int j = 0; j < d.size(); ++j) {
+          if (j != e.escape_joint) CHECK(d[j] == 0.0);
+        }
+      }
+      previous = &state;
+    }
+    REQUIRE(previous != nullptr);
+    CHECK(previous->q == e.at);
+  }
+  CHECK(by_joint >= 1);
+}
+
 TEST_CASE("drrt repairs the lift past the swinging crane, every repair re-checked", "[replan]") {
   // DRRT's repairs head back into the tree it kept, often across crane 2's sweep: where the
   // prediction covers the stopped machine it does not get away in time on some seeds, and the

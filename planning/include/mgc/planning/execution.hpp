@@ -37,9 +37,14 @@ struct RepairEvent {
   int bridge_attempts = 0;
   int path_nodes = 0;     //!< of the repaired path
   std::vector<JointVector> path;  //!< the repaired path, when the trajectory is recorded
-  //! How long the machine backed off along its executed motion before the repair, because the
-  //! prediction covered where it had stopped. [s]
+  //! How long the machine moved out of the prediction before the repair, because the prediction
+  //! covered where it had stopped: back along its executed motion, or one joint alone. [s]
   double retreat_s = 0.0;
+  //! The joint it moved alone to get out; -1 when it backed off along its executed motion or
+  //! did not move.
+  int escape_joint = -1;
+  //! By the caller's clock, choosing the way out of the prediction: simulating every candidate. [ms]
+  double escape_ms = 0.0;
   //! The prediction still covered the machine after retreating, so the repair saw the obstacles'
   //! present poses.
   bool predicted_start_conflict = false;
@@ -76,9 +81,11 @@ struct ExecutionResult {
 //! poses at the move's end and the move is checked against them (dynamic obstacles only: the
 //! planner answers for the static ones); when it collides, the machine stops where it is and the
 //! re-planner repairs, time frozen as in the papers (blocked again before any move, the machine
-//! waits a tick before the next repair). When the prediction (prediction_horizon_s) covers the machine where it
-//! stopped, it first backs off along its executed motion until it stands clear. After a failed
-//! repair the machine holds for `hold_s` and looks again.
+//! waits a tick before the next repair). Whenever the prediction (prediction_horizon_s) covers the
+//! machine at rest (stopped for a repair or holding), it first moves out of it: back along its
+//! executed motion or one joint alone, whichever way out is clear soonest, simulated against the
+//! obstacles' scripted motion over the prediction horizon. After a failed repair the machine holds for `hold_s` and looks
+//! again.
 //! `world` must be the problem's, built from `scenario` (dynamic obstacles in scenario order).
 //! `clock_ms` times the first plan and the repairs; without it those times are 0.
 [[nodiscard]] ExecutionResult execute_with_replanning(const Scenario& scenario, const PlanningProblem& problem,
