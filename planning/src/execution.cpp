@@ -114,88 +114,93 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     return world.hits_dynamic(q);
   };
   // Ways out of the prediction: back along the executed motion, or one joint alone at its speed
-  // limit either way (2n + 1 candidates). Each is simulated tick by tick before the machine takes
-  // it, every move checked against the obstacles' scripted poses at its end; a joint move also
-  // against the static site and the constraints at the planner's step (the way back is statically
-  // valid already). The candidate that stands clear of the prediction soonest is taken; when none
-  // does within the horizon, the machine backs off along its executed motion as far as it can,
-  // since from inside the prediction no path can keep clear of where the obstacle is going.
+  // limit either way (2n + 1 candidates). They are simulated before the machine takes one, a move
+  // of each in turn, every move checked against the obstacles' scripted poses at its end; a joint
+  // move also against the static site and the constraints at the planner's step (the way back is
+  // statically valid already). The first to stand clear of the prediction is taken (the soonest
+  // of those clear in the same turn); when none does within the horizon, the machine backs off
+  // along its executed motion as far as it can, since from inside the prediction no path can keep
+  // clear of where the obstacle is going.
   struct Trial {
     std::vector<ExecutedState> states;  //!< scenario time and configuration after each move
-    std::vector<JointVector> came_from;
+    std::vector<JointVector> came_from; //!< the way back's corners as it passes them
+    JointVector at;
+    double at_s = 0.0;
+    bool alive = false;
     bool clear = false;
   };
-  Trial trial;
-  Trial best;
-  const auto simulate = [&](int candidate, double limit_s) {
-    trial.states.clear();
-    trial.came_from = came_from;
-    trial.clear = false;
-    JointVector at = q;
-    double at_s = t_s;
-    const int joint = (candidate - 1) / 2;
-    const double sign = candidate % 2 == 1 ? 1.0 : -1.0;
-    Contact contact;
-    while (at_s - t_s < limit_s && at_s <= settings.time_limit_s) {
-      Move m;
-      if (candidate == 0) {
-        if (trial.came_from.size() == 1 && at == trial.came_from.front()) break;
-        m = move_toward(at, trial.came_from.back());
-      } else {
-        const JointSpec& spec = model.joints()[static_cast<std::size_t>(joint)];
-        m.to = at;
-        m.to[joint] += sign * spec.max_velocity * settings.tick_s;
-        if (spec.continuous) {
-          m.to[joint] = wrap_angle(m.to[joint]);
-        } else {
-          m.to[joint] = std::clamp(m.to[joint], spec.position_min, spec.position_max);
-        }
-        if (m.to == at) break;
-        m.dt_s = settings.tick_s;
-      }
-      pose_obstacles(at_s + m.dt_s, 0.0);
-      if (hits_dynamic_along(world, model, at, m.to, contact)) break;
-      if (candidate != 0 && !world.validate_edge(at, m.to, problem.step).valid()) break;
-      at = m.to;
-      at_s += m.dt_s;
-      trial.states.push_back({at_s, at});
-      if (candidate == 0 && m.reaches && trial.came_from.size() > 1) trial.came_from.pop_back();
-      pose_obstacles(at_s, horizon_s);
-      if (!world.hits_dynamic(at)) {
-        trial.clear = true;
-        break;
-      }
+  std::vector<Trial> trials(static_cast<std::size_t>(2 * model.dof() + 1));
+  // One more move of candidate c; false once it is blocked, at a joint limit, back at the start
+  // or out of time.
+  const auto advance = [&](int c, Trial& trial) {
+    if (trial.at_s - t_s >= horizon_s || trial.at_s > settings.time_limit_s) return false;
+    Move m;
+    if (c == 0) {
+      if (trial.came_from.size() == 1 && trial.at == trial.came_from.front()) return false;
+      m = move_toward(trial.at, trial.came_from.back());
+    } else {
+      const int joint = (c - 1) / 2;
+      const JointSpec& spec = model.joints()[static_cast<std::size_t>(joint)];
+      m.to = trial.at;
+      m.to[joint] += (c % 2 == 1 ? 1.0 : -1.0) * spec.max_velocity * settings.tick_s;
+      m.to[joint] = spec.continuous ? wrap_angle(m.to[joint]) : std::clamp(m.to[joint], spec.position_min, spec.position_max);
+      if (m.to == trial.at) return false;
+      m.dt_s = settings.tick_s;
     }
-    if (candidate != 0 && !trial.states.empty() && trial.came_from.back() != q) trial.came_from.push_back(q);
+    Contact contact;
+    pose_obstacles(trial.at_s + m.dt_s, 0.0);
+    if (hits_dynamic_along(world, model, trial.at, m.to, contact)) return false;
+    if (c != 0 && !world.validate_edge(trial.at, m.to, problem.step).valid()) return false;
+    trial.at = m.to;
+    trial.at_s += m.dt_s;
+    trial.states.push_back({trial.at_s, trial.at});
+    if (c == 0 && m.reaches && trial.came_from.size() > 1) trial.came_from.pop_back();
+    pose_obstacles(trial.at_s, horizon_s);
+    trial.clear = !world.hits_dynamic(trial.at);
+    return true;
   };
   const auto escape = [&](RepairEvent* event) {
     if (predicted == 0 || !inside_prediction()) return;
     const double search_start_ms = now_ms();
-    best.states.clear();
-    best.clear = false;
-    int best_candidate = -1;
-    for (int candidate = 0; candidate <= 2 * model.dof(); ++candidate) {
-      const double limit_s = best.clear ? best.states.back().t_s - t_s : horizon_s;
-      simulate(candidate, limit_s);
-      const bool better = trial.clear ? !best.clear || trial.states.back().t_s < best.states.back().t_s
-                                      : candidate == 0 && !trial.states.empty();
-      if (better) {
-        std::swap(best, trial);
-        best_candidate = candidate;
+    for (Trial& trial : trials) {
+      trial.states.clear();
+      trial.came_from = came_from;
+      trial.at = q;
+      trial.at_s = t_s;
+      trial.alive = true;
+      trial.clear = false;
+    }
+    int chosen = -1;
+    for (bool any = true; any && chosen < 0;) {
+      any = false;
+      for (int c = 0; c < static_cast<int>(trials.size()); ++c) {
+        Trial& trial = trials[static_cast<std::size_t>(c)];
+        if (!trial.alive) continue;
+        trial.alive = advance(c, trial) && !trial.clear;
+        any = any || trial.alive;
+        if (trial.clear && (chosen < 0 || trial.at_s < trials[static_cast<std::size_t>(chosen)].at_s)) chosen = c;
       }
     }
-    const double search_ms = now_ms() - search_start_ms;
+    if (chosen < 0 && !trials[0].states.empty()) chosen = 0;
+    if (event != nullptr) event->escape_ms += now_ms() - search_start_ms;
+    if (chosen < 0) return;
+    const Trial& way = trials[static_cast<std::size_t>(chosen)];
     const double from_s = t_s;
-    for (const ExecutedState& state : best.states) {
+    const JointVector from_q = q;
+    for (const ExecutedState& state : way.states) {
       t_s = state.t_s;
       q = state.q;
       reached(q);
     }
-    if (!best.states.empty()) came_from = best.came_from;
+    if (chosen == 0) {
+      came_from = way.came_from;
+    } else if (came_from.back() != from_q) {
+      // The joint move is straight from where it began: a corner of the way back.
+      came_from.push_back(from_q);
+    }
     if (event != nullptr) {
       event->retreat_s += t_s - from_s;
-      event->escape_ms += search_ms;
-      if (best_candidate > 0) event->escape_joint = (best_candidate - 1) / 2;
+      if (chosen > 0) event->escape_joint = (chosen - 1) / 2;
     }
   };
   // Holds for hold_s in ticks, keeping clear of the prediction.
