@@ -16,8 +16,8 @@ namespace {
 
 using namespace mgc::planning;
 
-constexpr int kPredictedPoses = 3;
-constexpr double kHorizonS = 3.0;
+//! Predicted poses are 1 s apart over each case's horizon.
+constexpr double kPredictionSpacingS = 1.0;
 constexpr int kMaxRepairs = 10;  //!< a lift still blocked after this many repairs counts as stuck
 
 //! What a paper printed for the same kind of event.
@@ -30,6 +30,10 @@ struct EventCase {
   const char* scenario;
   const char* what;
   std::vector<double> start_times_s;  //!< phases: scenario time at which the lift starts
+  //! How far ahead the machine sees the intruder's motion: long enough to get out of the way of an
+  //! intruder that sweeps on (a slewing crane), not so long that one which stops (a truck that
+  //! parks) is seen before the lift starts, which would leave no event to repair. [s]
+  double horizon_s;
   std::vector<PaperFigures> paper;
 };
 
@@ -39,14 +43,17 @@ const std::vector<EventCase>& cases() {
        "TMS870 by the steel frame; crane 2 swings 90 deg into the west route from 60 s to 84 s (seed 000 case study 2, "
        "thesis hydraulic case)",
        {0.0, 15.0, 30.0},
+       6.0,
        {{"paper: DRRT (seed 000 Table 5)", "5980", "170", "26970", "9630", "12/22", "-", "-"},
         {"paper: DRRT-Con-Con-Mod (seed 000 Table 5)", "1470", "110", "5270", "1400", "23/23", "-", "-"},
         {"paper: DRRT, hydraulic (thesis Table 4.3)", "1736", "-", "-", "3831", "-", "24.2", "4.6"}}},
       {"thesis-steel-frame-tower.yaml", "tower crane by the steel frame; tower crane 2 slews 90 deg from 60 s to 80 s",
        {0.0, 15.0, 30.0},
+       6.0,
        {{"paper: DRRT, tower (thesis Table 4.3)", "35", "-", "-", "819", "-", "19.2", "4.1"}}},
       {"excavator-truck.yaml", "Cat 320 loading a truck; truck 2 parks across the bucket's swing at 6.25 s",
        {0.0, 2.0, 4.0},
+       3.0,
        {}},
   };
   return all;
@@ -61,7 +68,12 @@ struct Column {
   int events = 0;
   int solved = 0;
   std::vector<double> repair_ms;  //!< every event, solved or not
+  //! every event: choosing the way out of the prediction (if any) plus the repair
+  std::vector<double> stop_to_path_ms;
   std::vector<double> solved_ms;
+  int escapes_back = 0;      //!< repairs after backing off along the executed motion
+  int escapes_by_joint = 0;  //!< repairs after moving one joint alone out of the prediction
+  std::vector<double> escape_ms;
   double iterations = 0.0;
   double path_nodes = 0.0;
 };
@@ -87,9 +99,9 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
   std::string& md = out.markdown;
   md += "#### Re-planning: seed 000 Table 5 and thesis Table 4.3\n\n";
   md += "Each lift runs with `execute_with_replanning` (docs/replanning.md): the machine moves along its path in 1/30 s "
-        "ticks at full joint speed, the dynamic obstacles follow their scripted motion with " +
-        std::to_string(kPredictedPoses) + " predicted poses over " + fmt(kHorizonS, 0) +
-        " s, and every blocked move stops the machine and calls the re-planner. Seeds " +
+        "ticks at full joint speed, the dynamic obstacles follow their scripted motion with predicted poses " +
+        fmt(kPredictionSpacingS, 0) +
+        " s apart over each site's horizon, and every blocked move stops the machine and calls the re-planner. Seeds " +
         std::to_string(options.first_seed) + ".." + std::to_string(options.first_seed + static_cast<std::uint64_t>(runs) - 1) +
         ", each started at several scenario times so the intrusion meets the lift at different phases; at most " +
         std::to_string(kMaxRepairs) +
@@ -107,7 +119,8 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
       out.markdown.clear();
       return out;
     }
-    loaded.world = build_world(loaded.scenario, *loaded.model, 0.0, kPredictedPoses);
+    const int predicted_poses = static_cast<int>(std::lround(c.horizon_s / kPredictionSpacingS));
+    loaded.world = build_world(loaded.scenario, *loaded.model, 0.0, predicted_poses);
     ReplanSettings replan;
     replan.max_iterations = loaded.scenario.planner.replan_max_iterations;
     replan.goal_bias = loaded.scenario.planner.replan_goal_bias;
@@ -124,7 +137,7 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
           PlanningProblem problem = planning_problem(loaded.scenario, *loaded.model, *loaded.world);
           problem.seed = seed;
           ExecutionSettings execution;
-          execution.prediction_horizon_s = kHorizonS;
+          execution.prediction_horizon_s = c.horizon_s;
           execution.start_time_s = start_s;
           execution.max_repairs = kMaxRepairs;
           execution.record_trajectory = false;
@@ -147,7 +160,12 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
             const RepairEvent& e = r.repairs[k];
             ++col.events;
             col.repair_ms.push_back(e.compute_ms);
+            col.stop_to_path_ms.push_back(e.escape_ms + e.compute_ms);
             col.iterations += e.iterations;
+            if (e.retreat_s > 0.0) {
+              ++(e.escape_joint >= 0 ? col.escapes_by_joint : col.escapes_back);
+              col.escape_ms.push_back(e.escape_ms);
+            }
             if (e.status == PlannerStatus::Solved) {
               ++col.solved;
               col.solved_ms.push_back(e.compute_ms);
@@ -162,6 +180,9 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
             row.invalidated_nodes = e.invalidated_nodes;
             row.bridge_attempts = e.bridge_attempts;
             row.path_nodes = e.path_nodes;
+            row.escape_ms = e.escape_ms;
+            row.retreat_s = e.retreat_s;
+            row.escape_joint = e.escape_joint;
             out.rows.push_back(std::move(row));
           }
           progress.tick(std::string(name) + " seed " + std::to_string(seed));
@@ -170,7 +191,7 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
       columns.push_back(std::move(col));
     }
 
-    md += std::string("**") + c.scenario + "**: " + c.what + ".\n\n| | ";
+    md += std::string("**") + c.scenario + "**: " + c.what + "; horizon " + fmt(c.horizon_s, 0) + " s.\n\n| | ";
     for (const Column& col : columns) md += col.replanner + " | ";
     for (const PaperFigures& p : c.paper) md += p.header + " | ";
     md += "\n|---|";
@@ -197,6 +218,17 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
     row("repair max ms", [](const Column& col) { return fmt(max_of(col.repair_ms)); }, [](const PaperFigures& p) { return p.max; });
     row("repair sd ms", [](const Column& col) { return fmt(standard_deviation(col.repair_ms)); },
         [](const PaperFigures& p) { return p.sd; });
+    row("repairs after moving out of the prediction: back / one joint",
+        [](const Column& col) { return std::to_string(col.escapes_back) + " / " + std::to_string(col.escapes_by_joint); },
+        none);
+    row("choosing the way out, median / max ms",
+        [](const Column& col) { return fmt(percentile(col.escape_ms, 0.5)) + " / " + fmt(max_of(col.escape_ms)); }, none);
+    row("stop to new path with choosing the way out, median / p95 / p99 ms",
+        [](const Column& col) {
+          return fmt(percentile(col.stop_to_path_ms, 0.5)) + " / " + fmt(percentile(col.stop_to_path_ms, 0.95)) + " / " +
+                 fmt(percentile(col.stop_to_path_ms, 0.99));
+        },
+        none);
     row("iterations per repair (mean)",
         [](const Column& col) { return col.events ? fmt(col.iterations / col.events, 1) : std::string("-"); },
         [](const PaperFigures& p) { return p.nodes; });
@@ -207,12 +239,14 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
 
     for (const Column& col : columns) {
       if (col.replanner != "drrt-con-con-mod") continue;
-      const double median = percentile(col.repair_ms, 0.5);
-      const double p95 = percentile(col.repair_ms, 0.95);
+      // From the stop to the new path: choosing the way out of the prediction counts too.
+      const double median = percentile(col.stop_to_path_ms, 0.5);
+      const double p95 = percentile(col.stop_to_path_ms, 0.95);
       const bool ok = col.events > 0 && col.solved == col.events && median < 2.0 && p95 < 10.0 &&
                       col.lifts_with_contact == 0;
       con_con_mod_ok = con_con_mod_ok && ok;
-      target_lines += std::string("- ") + c.scenario + ": drrt-con-con-mod median " + fmt(median) + " ms (target < 2), p95 " +
+      target_lines += std::string("- ") + c.scenario + ": drrt-con-con-mod, stop to new path, median " + fmt(median) +
+                      " ms (target < 2), p95 " +
                       fmt(p95) + " ms (target < 10), " + std::to_string(col.solved) + "/" + std::to_string(col.events) +
                       " events solved (target all), lifts an obstacle reached " + std::to_string(col.lifts_with_contact) +
                       " (target 0): " + (ok ? "**met**" : "**not met**") + ".\n";
@@ -225,16 +259,17 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
 
 void write_replan_csv(std::ostream& out, const std::vector<ReplanRow>& rows) {
   out << "scenario,replanner,seed,start_time_s,outcome,contact_states,first_plan_ms,event,event_t_s,status,repair_ms,"
-         "iterations,invalidated_nodes,bridge_attempts,path_nodes\n";
+         "iterations,invalidated_nodes,bridge_attempts,path_nodes,escape_ms,retreat_s,escape_joint\n";
   for (const ReplanRow& r : rows) {
     out << r.scenario << ',' << r.replanner << ',' << r.seed << ',' << r.start_time_s << ',' << r.outcome << ','
         << r.contact_states << ',' << r.first_plan_ms << ',';
     if (r.event < 0) {
-      out << ",,,,,,,\n";
+      out << ",,,,,,,,,,\n";
       continue;
     }
     out << r.event << ',' << r.event_t_s << ',' << r.status << ',' << r.repair_ms << ',' << r.iterations << ','
-        << r.invalidated_nodes << ',' << r.bridge_attempts << ',' << r.path_nodes << '\n';
+        << r.invalidated_nodes << ',' << r.bridge_attempts << ',' << r.path_nodes << ',' << r.escape_ms << ','
+        << r.retreat_s << ',' << r.escape_joint << '\n';
   }
 }
 
@@ -250,6 +285,7 @@ void write_replan_json(tools::JsonWriter& w, const std::vector<ReplanRow>& rows)
       w.key("repair_ms").value(r.repair_ms).key("iterations").value(r.iterations);
       w.key("invalidated_nodes").value(r.invalidated_nodes).key("bridge_attempts").value(r.bridge_attempts);
       w.key("path_nodes").value(r.path_nodes);
+      w.key("escape_ms").value(r.escape_ms).key("retreat_s").value(r.retreat_s).key("escape_joint").value(r.escape_joint);
     }
     w.end_object();
   }

@@ -27,6 +27,11 @@ struct ReplanRow {
   double event_t_s = 0.0;
   std::string status;
   double repair_ms = 0.0;
+  //! Choosing the way out of the prediction before the repair (0 when the machine was not inside
+  //! it), and the time it then moved out: back along its motion (escape_joint -1) or one joint.
+  double escape_ms = 0.0;
+  double retreat_s = 0.0;
+  int escape_joint = -1;
   int iterations = 0;
   int invalidated_nodes = 0;
   int bridge_attempts = 0;
