@@ -274,6 +274,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
       next = 1;
       if (came_from.back() != q) came_from.push_back(q);
       event.path_nodes = static_cast<int>(replanner.path().size());
+      event.checked_nodes = stats.checked_nodes;
       if (settings.record_trajectory) event.path = replanner.path();
     } else {
       // Hold, clear of the prediction, and look again once the obstacles have moved on.

@@ -97,6 +97,7 @@ class DrrtReplanner final : public Replanner {
     ++stats_.repairs;
     repairing_ = true;
     stats_.invalidated_nodes = 0;
+    stats_.checked_nodes = 0;
     CollisionWorld& world = *problem_->world;
     if (!world.validate(q_machine).valid()) return status_ = PlannerStatus::InvalidStart;
     NodeTree& tree = tree_.nodes();
@@ -156,6 +157,7 @@ class DrrtReplanner final : public Replanner {
       if (bad < 0) {
         path_.swap(candidate_);
         path_node_.swap(candidate_node_);
+        stats_.checked_nodes = static_cast<int>(path_.size());
         return PlannerStatus::Solved;
       }
       invalid_.assign(tree.size(), 0);
@@ -252,6 +254,7 @@ class ConConModReplanner final : public Replanner {
     repairing_ = true;
     stats_.bridge_attempts = 0;
     stats_.invalidated_nodes = 0;
+    stats_.checked_nodes = 0;
     if (!problem_->world->validate(q_machine).valid()) return status_ = PlannerStatus::InvalidStart;
     bridge_.start = q_machine;
     goal_index_ = static_cast<std::size_t>(std::clamp(next, 1, static_cast<int>(path_.size()) - 1));
@@ -287,6 +290,7 @@ class ConConModReplanner final : public Replanner {
     candidate_.assign(b.begin(), b.end());
     candidate_.insert(candidate_.end(), path_.begin() + static_cast<std::ptrdiff_t>(goal_index_ + 1), path_.end());
     path_.swap(candidate_);
+    stats_.checked_nodes = static_cast<int>(b.size());
     return PlannerStatus::Solved;
   }
 

@@ -36,6 +36,7 @@ struct RepairEvent {
   int invalidated_nodes = 0;
   int bridge_attempts = 0;
   int path_nodes = 0;     //!< of the repaired path
+  int checked_nodes = 0;  //!< ReplanStats::checked_nodes: the repaired path's leading nodes checked against t_s's poses
   std::vector<JointVector> path;  //!< the repaired path, when the trajectory is recorded
   //! How long the machine moved out of the prediction before the repair, because the prediction
   //! covered where it had stopped: back along its executed motion, or one joint alone. [s]

@@ -26,6 +26,9 @@ struct ReplanStats {
   int tree_nodes = 0;          //!< nodes now held (all trees)
   int invalidated_nodes = 0;   //!< removed by the last repair (DRRT: trimmed; Con-Con-Mod: dropped path nodes)
   int bridge_attempts = 0;     //!< Con-Con-Mod: bridges tried by the last repair
+  //! Leading nodes of the last repaired path whose edges were checked against the poses that repair
+  //! saw: DRRT all of them, Con-Con-Mod its bridge (the rest of its old path is not re-checked).
+  int checked_nodes = 0;
   bool dual_phase_used = false;
   std::uint64_t collision_checks = 0;
 };
