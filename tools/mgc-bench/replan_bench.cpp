@@ -245,11 +245,14 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
       const bool ok = col.events > 0 && col.solved == col.events && median < 2.0 && p95 < 10.0 &&
                       col.lifts_with_contact == 0;
       con_con_mod_ok = con_con_mod_ok && ok;
+      // A short run (the demo's two seeds) may meet no event on a site: nothing to judge there.
+      const char* verdict = ok ? "**met**" : "**not met**";
+      if (col.events == 0 && col.lifts_with_contact == 0) verdict = "no re-planning event in these lifts, so not measured";
       target_lines += std::string("- ") + c.scenario + ": drrt-con-con-mod, stop to new path, median " + fmt(median) +
                       " ms (target < 2), p95 " +
                       fmt(p95) + " ms (target < 10), " + std::to_string(col.solved) + "/" + std::to_string(col.events) +
                       " events solved (target all), lifts an obstacle reached " + std::to_string(col.lifts_with_contact) +
-                      " (target 0): " + (ok ? "**met**" : "**not met**") + ".\n";
+                      " (target 0): " + verdict + ".\n";
     }
   }
   md += "Issue 5's re-planning targets:\n\n" + target_lines + "\n";
