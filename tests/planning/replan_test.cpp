@@ -33,6 +33,18 @@ Site load_site(const std::string& file, std::uint64_t seed, int predicted_poses 
   return site;
 }
 
+//! Whether q at scenario time t_s is inside the prediction as execute_with_replanning poses it:
+//! copy k of each obstacle k / P of the horizon ahead.
+bool inside(Site& site, const JointVector& q, double t_s, double horizon_s, int predicted) {
+  CollisionWorld& world = *site.loaded.world;
+  const int copies = predicted + 1;
+  for (int i = 0; i < world.num_dynamic(); ++i) {
+    const double ahead_s = horizon_s * (i % copies) / predicted;
+    world.set_dynamic_pose(i, site.loaded.scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)].pose_at(t_s + ahead_s));
+  }
+  return world.hits_dynamic(q);
+}
+
 ReplanSettings replan_settings(const Scenario& s) {
   ReplanSettings r;
   r.max_iterations = s.planner.replan_max_iterations;
@@ -206,14 +218,8 @@ TEST_CASE("a machine inside the prediction takes the quickest way out, here one 
   CHECK(r.contact_states == 0);
   checker.executed(r);
 
-  CollisionWorld& world = *site.loaded.world;
-  const int copies = kPredictedPoses + 1;
   const auto inside_prediction = [&](const JointVector& q, double t_s) {
-    for (int i = 0; i < world.num_dynamic(); ++i) {
-      const double ahead_s = kHorizonS * (i % copies) / kPredictedPoses;
-      world.set_dynamic_pose(i, site.loaded.scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)].pose_at(t_s + ahead_s));
-    }
-    return world.hits_dynamic(q);
+    return inside(site, q, t_s, kHorizonS, kPredictedPoses);
   };
   int by_joint = 0;
   for (const RepairEvent& e : r.repairs) {
@@ -240,6 +246,42 @@ TEST_CASE("a machine inside the prediction takes the quickest way out, here one 
     CHECK(previous->q == e.at);
   }
   CHECK(by_joint >= 1);
+}
+
+TEST_CASE("a machine holding after a failed repair moves out of the prediction when it comes over it", "[replan]") {
+  // Tower site, 6 s horizon, seed 16 from 30 s into the script: at 72.6 s the prediction of crane
+  // 2's jib covers our goal (GoalOccupied), and while the machine holds, the jib's prediction comes
+  // over where it stands.
+  Checker checker("thesis-steel-frame-tower.yaml");
+  Site site = load_site("thesis-steel-frame-tower.yaml", 16, 6);
+  ExecutionSettings settings = execution_settings(6.0, 30.0);
+  settings.max_repairs = 10;
+  auto replanner = make_replanner("drrt-con-con-mod");
+  const ExecutionResult r = execute_with_replanning(site.loaded.scenario, site.problem, *replanner,
+                                                    replan_settings(site.loaded.scenario), settings);
+  REQUIRE(r.first_plan == PlannerStatus::Solved);
+  REQUIRE(!r.repairs.empty());
+  const RepairEvent& failed = r.repairs.front();
+  REQUIRE(failed.status == PlannerStatus::GoalOccupied);
+  CHECK(r.contact_states == 0);
+  checker.executed(r);
+
+  // While it held, the prediction came over where it stood (it held there up to that moment), and
+  // it moved out: within the horizon it stood somewhere else, clear of the prediction.
+  std::size_t left = 0;
+  for (std::size_t k = 1; k < r.trajectory.size() && left == 0; ++k) {
+    if (r.trajectory[k].t_s > failed.t_s && r.trajectory[k].q != failed.at) left = k;
+  }
+  REQUIRE(left > 0);
+  const ExecutedState& last_held = r.trajectory[left - 1];
+  CHECK(last_held.q == failed.at);
+  CHECK(last_held.t_s <= failed.t_s + settings.hold_s + 1e-9);
+  CHECK(inside(site, failed.at, last_held.t_s, 6.0, 6));
+  bool got_clear = false;
+  for (std::size_t k = left; k < r.trajectory.size() && r.trajectory[k].t_s <= last_held.t_s + 6.0 && !got_clear; ++k) {
+    got_clear = !inside(site, r.trajectory[k].q, r.trajectory[k].t_s, 6.0, 6);
+  }
+  CHECK(got_clear);
 }
 
 TEST_CASE("drrt repairs the lift past the swinging crane, every repair re-checked", "[replan]") {
