@@ -123,7 +123,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
   // clear of where the obstacle is going.
   struct Trial {
     std::vector<ExecutedState> states;  //!< scenario time and configuration after each move
-    std::vector<JointVector> came_from; //!< the way back's corners as it passes them
+    std::vector<JointVector> came_from; //!< the way back (candidate 0 only): its corners as it passes them
     JointVector at;
     double at_s = 0.0;
     bool alive = false;
@@ -162,9 +162,9 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
   const auto escape = [&](RepairEvent* event) {
     if (predicted == 0 || !inside_prediction()) return;
     const double search_start_ms = now_ms();
+    trials[0].came_from = came_from;
     for (Trial& trial : trials) {
       trial.states.clear();
-      trial.came_from = came_from;
       trial.at = q;
       trial.at_s = t_s;
       trial.alive = true;

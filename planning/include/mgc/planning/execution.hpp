@@ -85,8 +85,8 @@ struct ExecutionResult {
 //! waits a tick before the next repair). Whenever the prediction (prediction_horizon_s) covers the
 //! machine at rest (stopped for a repair or holding), it first moves out of it: back along its
 //! executed motion or one joint alone, whichever way out is clear soonest, simulated against the
-//! obstacles' scripted motion over the prediction horizon. After a failed repair the machine holds for `hold_s` and looks
-//! again.
+//! obstacles' scripted motion over the prediction horizon. After a failed repair the machine holds
+//! for `hold_s` and looks again.
 //! `world` must be the problem's, built from `scenario` (dynamic obstacles in scenario order).
 //! `clock_ms` times the first plan and the repairs; without it those times are 0.
 [[nodiscard]] ExecutionResult execute_with_replanning(const Scenario& scenario, const PlanningProblem& problem,
