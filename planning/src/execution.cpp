@@ -54,6 +54,44 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
   };
   const double horizon_s = settings.prediction_horizon_s;
   const auto now_ms = [&] { return clock_ms ? clock_ms() : 0.0; };
+  const double spacing_s = predicted > 0 ? horizon_s / predicted : horizon_s;
+  const auto any_moves = [&](double from_s, double to_s) {
+    for (const DynamicObstacleSpec& obstacle : scenario.dynamic_obstacles) {
+      if (obstacle.moves_between(from_s, to_s)) return true;
+    }
+    return false;
+  };
+  // Whether the obstacles, moving on as predicted, reach a machine standing at `state` within the
+  // horizon from t0_s. The copies alone leave gaps: a jib slewing at 3.5 m/s at the tip moves
+  // metres between two copies 1 s apart, and a machine stopped in such a gap is run into before
+  // the next copy comes. So while an obstacle moves, the copies are also shifted a tick at a time
+  // through the spacing between them; the unshifted check comes first and settles most states.
+  const auto covered_at_rest = [&](const JointVector& state, double t0_s) {
+    const bool shift = predicted > 0 && any_moves(t0_s, t0_s + horizon_s);
+    for (double shift_s = 0.0; shift_s == 0.0 || (shift && shift_s < spacing_s); shift_s += settings.tick_s) {
+      for (int i = 0; i < world.num_dynamic(); ++i) {
+        const double ahead_s = std::min(horizon_s, spacing_s * (i % copies) + shift_s);
+        world.set_dynamic_pose(i, scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)].pose_at(t0_s + ahead_s));
+      }
+      if (world.hits_dynamic(state)) return true;
+    }
+    return false;
+  };
+  // Whether the obstacles reach a machine stopping at `state` between their first two copies:
+  // the first gap of the prediction, where a machine stopped would have no time left to get out.
+  // The copies must stand at t0_s + k spacing (pose_obstacles(t0_s, horizon_s)); only the first
+  // of each moving obstacle is moved.
+  const auto reached_before_next_copy = [&](const JointVector& state, double t0_s, Contact& contact) {
+    if (predicted == 0 || !any_moves(t0_s, t0_s + spacing_s)) return false;
+    for (double shift_s = settings.tick_s; shift_s < spacing_s; shift_s += settings.tick_s) {
+      for (int i = 0; i < world.num_dynamic(); i += copies) {
+        const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
+        if (obstacle.moves_between(t0_s, t0_s + spacing_s)) world.set_dynamic_pose(i, obstacle.pose_at(t0_s + shift_s));
+      }
+      if (world.hits_dynamic(state, &contact)) return true;
+    }
+    return false;
+  };
 
   ExecutionResult result;
   double t_s = settings.start_time_s;
@@ -85,10 +123,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     if (settings.record_trajectory) result.trajectory.push_back({t_s, state});
     pose_obstacles(t_s, 0.0);
     if (world.hits_dynamic(state)) ++result.contact_states;
-    if (escaping) {
-      pose_obstacles(t_s, horizon_s);
-      escaping = world.hits_dynamic(state);
-    }
+    if (escaping) escaping = covered_at_rest(state, t_s);
   };
   // One move toward `target`: the joints at their speed limits, scaled to arrive together, for
   // one tick or up to the target.
@@ -109,10 +144,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     m.to = m.reaches ? target : model.interpolate(from, target, m.dt_s / needed_s);
     return m;
   };
-  const auto inside_prediction = [&] {
-    pose_obstacles(t_s, horizon_s);
-    return world.hits_dynamic(q);
-  };
+  const auto inside_prediction = [&] { return covered_at_rest(q, t_s); };
   // Ways out of the prediction: back along the executed motion, or one joint alone at its speed
   // limit either way (2n + 1 candidates). They are simulated before the machine takes one, a move
   // of each in turn, every move checked against the obstacles' scripted poses at its end; a joint
@@ -155,8 +187,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     trial.at_s += m.dt_s;
     trial.states.push_back({trial.at_s, trial.at});
     if (c == 0 && m.reaches && trial.came_from.size() > 1) trial.came_from.pop_back();
-    pose_obstacles(trial.at_s, horizon_s);
-    trial.clear = !world.hits_dynamic(trial.at);
+    trial.clear = !covered_at_rest(trial.at, trial.at_s);
     return true;
   };
   const auto escape = [&](RepairEvent* event) {
@@ -226,7 +257,10 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     // move's end, which the repair then sees too. Obstacles here move centimetres per tick.
     Contact contact;
     pose_obstacles(t_s + m.dt_s, escaping ? 0.0 : horizon_s);
-    if (!hits_dynamic_along(world, model, q, m.to, contact)) {
+    // A move may also not end where the obstacles would reach the machine before their next copy,
+    // should it have to stop there: it would have no time to get out.
+    if (!hits_dynamic_along(world, model, q, m.to, contact) &&
+        (escaping || !reached_before_next_copy(m.to, t_s + m.dt_s, contact))) {
       q = m.to;
       t_s += m.dt_s;
       if (m.reaches) {

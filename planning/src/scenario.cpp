@@ -26,6 +26,25 @@ Eigen::Isometry3d DynamicObstacleSpec::pose_at(double t_s) const noexcept {
   return pose(a.position_m + s * (b.position_m - a.position_m), a.yaw_rad + s * (b.yaw_rad - a.yaw_rad));
 }
 
+bool DynamicObstacleSpec::moves_between(double from_s, double to_s) const noexcept {
+  // The motion is linear between keys: it holds still on [from_s, to_s] when the keys inside it
+  // and its two ends all stand in one place.
+  const auto same = [](const Keyframe& a, const Keyframe& b) {
+    return a.position_m == b.position_m && a.yaw_rad == b.yaw_rad;
+  };
+  if (motion.size() < 2 || to_s <= motion.front().t_s || from_s >= motion.back().t_s) return false;
+  const auto first = std::upper_bound(motion.begin(), motion.end(), from_s,
+                                      [](double t, const Keyframe& k) { return t < k.t_s; });
+  // first: the first key after from_s; the keys from first - 1 up to the first at or after to_s
+  // shape the motion over the interval.
+  auto k = first == motion.begin() ? first : first - 1;
+  for (auto next = k + 1; next != motion.end(); ++k, ++next) {
+    if (!same(*k, *next)) return true;
+    if (next->t_s >= to_s) break;
+  }
+  return false;
+}
+
 std::unique_ptr<MachineModel> build_model(const Scenario& scenario) {
   const MachineDefinition& m = scenario.machine;
   if (scenario.dual_crane) {

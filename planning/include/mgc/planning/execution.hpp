@@ -80,13 +80,17 @@ struct ExecutionResult {
 //! each edge, the joints at their speed limits scaled to arrive together, at most one tick or up
 //! to the next waypoint per move. Before each move the dynamic obstacles go to their scenario
 //! poses at the move's end and the move is checked against them (dynamic obstacles only: the
-//! planner answers for the static ones); when it collides, the machine stops where it is and the
-//! re-planner repairs, time frozen as in the papers (blocked again before any move, the machine
-//! waits a tick before the next repair). Whenever the prediction (prediction_horizon_s) covers the
-//! machine at rest (stopped for a repair or holding), it first moves out of it: back along its
-//! executed motion or one joint alone, whichever way out is clear soonest, simulated against the
-//! obstacles' scripted motion over the prediction horizon. After a failed repair the machine holds
-//! for `hold_s` and looks again.
+//! planner answers for the static ones); with a prediction, also against the obstacles' copies
+//! ahead, and the move's end against their motion a tick at a time up to the first copy ahead (a
+//! machine that had to stop there would have no time to get out). When a move collides, the
+//! machine stops where it is and the re-planner repairs, time frozen as in the papers (blocked
+//! again before any move, the machine waits a tick before the next repair). Whenever the
+//! prediction (prediction_horizon_s) covers the machine at rest (stopped for a repair or
+//! holding), it first moves out of it: back along its executed motion or one joint alone,
+//! whichever way out is clear soonest, simulated against the obstacles' scripted motion over the
+//! prediction horizon. For a machine at rest the prediction follows the obstacles a tick at a
+//! time, not only at the copies, so it is not left standing in the gap between two copies. After
+//! a failed repair the machine holds for `hold_s` and looks again.
 //! `world` must be the problem's, built from `scenario` (dynamic obstacles in scenario order).
 //! `clock_ms` times the first plan and the repairs; without it those times are 0.
 [[nodiscard]] ExecutionResult execute_with_replanning(const Scenario& scenario, const PlanningProblem& problem,

@@ -76,6 +76,8 @@ struct DynamicObstacleSpec {
 
   //! Pose at time t_s: held at the first key before it and at the last key after it.
   [[nodiscard]] Eigen::Isometry3d pose_at(double t_s) const noexcept;
+  //! Whether the pose changes anywhere between from_s and to_s (from_s <= to_s).
+  [[nodiscard]] bool moves_between(double from_s, double to_s) const noexcept;
 };
 
 //! Planner parameters as the thesis names them (Table 4.1), in our units.
