@@ -30,6 +30,45 @@ TEST_CASE("every shipped scenario has feasible start and goal and a blocked stra
   }
 }
 
+TEST_CASE("a dynamic obstacle moves between two times only where its keys differ", "[scenario]") {
+  DynamicObstacleSpec spec;
+  const auto key = [](double t_s, double x_m, double yaw_rad) {
+    Keyframe k;
+    k.t_s = t_s;
+    k.position_m = Eigen::Vector3d(x_m, 0, 0);
+    k.yaw_rad = yaw_rad;
+    return k;
+  };
+  CHECK_FALSE(spec.moves_between(0, 100));  // no keys
+  spec.motion = {key(10, 0, 0)};
+  CHECK_FALSE(spec.moves_between(0, 100));  // one key: held
+  // Still until 10 s, slews until 20 s, still until 30 s, drives until 40 s, held after.
+  spec.motion = {key(0, 0, 0), key(10, 0, 0), key(20, 0, 1), key(30, 0, 1), key(40, 5, 1)};
+  CHECK_FALSE(spec.moves_between(-5, 10));
+  CHECK_FALSE(spec.moves_between(2, 9.5));
+  CHECK(spec.moves_between(9.5, 10.5));
+  CHECK(spec.moves_between(12, 13));
+  CHECK(spec.moves_between(19, 21));
+  CHECK_FALSE(spec.moves_between(20, 30));
+  CHECK_FALSE(spec.moves_between(21, 29));
+  CHECK(spec.moves_between(29, 31));
+  CHECK(spec.moves_between(5, 35));      // spans a whole still stretch and two moves
+  CHECK(spec.moves_between(0, 100));
+  CHECK_FALSE(spec.moves_between(40, 100));
+  CHECK_FALSE(spec.moves_between(50, 60));
+  // What it answers agrees with the poses it gives, sampled finely.
+  for (double from_s = -2.0; from_s < 45.0; from_s += 0.75) {
+    for (const double length_s : {0.2, 1.0, 3.0, 9.0}) {
+      bool moved = false;
+      for (double t = from_s; t <= from_s + length_s; t += 0.01) {
+        moved = moved || !spec.pose_at(t).isApprox(spec.pose_at(from_s), 0.0);
+      }
+      CAPTURE(from_s, length_s);
+      if (moved) CHECK(spec.moves_between(from_s, from_s + length_s));
+    }
+  }
+}
+
 TEST_CASE("thesis steel frame: 535 members, crane 2 swings 90 deg mid-lift", "[scenario]") {
   auto loaded = load("thesis-steel-frame.yaml");
   const Scenario& s = loaded.scenario;
