@@ -86,9 +86,13 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
       if (shift_s > 0.0 && !shift) break;
       for (int i = 0; i < world.num_dynamic(); ++i) {
         const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
-        const double ahead_s = spacing_s * (i % copies);
-        if (shift_s > 0.0 && !obstacle.moves_between(t0_s + ahead_s, t0_s + ahead_s + spacing_s)) continue;
-        world.set_dynamic_pose(i, obstacle.pose_at(t0_s + std::min(horizon_s, ahead_s + shift_s)));
+        const int k = i % copies;
+        const double ahead_s = spacing_s * k;
+        // The last copy stands at the horizon's end: there is no gap after it to follow.
+        if (shift_s > 0.0 && (k == predicted || !obstacle.moves_between(t0_s + ahead_s, t0_s + ahead_s + spacing_s))) {
+          continue;
+        }
+        world.set_dynamic_pose(i, obstacle.pose_at(t0_s + ahead_s + shift_s));
       }
       if (world.hits_dynamic(state)) return true;
     }
