@@ -399,15 +399,19 @@ void Controller::predict_approach() noexcept {
   // tracked velocity and slew rate (a slewing crane turns about its mast, its frame's origin),
   // the machine where it stands. The tracked poses are put back at once for the next stop check.
   const double tau_s = ++approach_step_ * config_.approach_step_s;
+  // Between two steps an obstacle moves on: one that comes within the margin at some instant
+  // (after the first half step) is within the margin plus half a step's travel at the nearer step.
+  double step_travel_m = 0.0;
   for (std::size_t t = 0; t < trackers_.size(); ++t) {
     const PoseHistory& h = histories_[t];
     if (!obstacle_moving(h)) continue;
+    step_travel_m = std::max(step_travel_m, h.speed_m_s * config_.approach_step_s);
     Eigen::Isometry3d predicted = Eigen::Isometry3d::Identity();
     predicted.translate(trackers_[t].position_m() + h.velocity_m_s * tau_s);
     predicted.rotate(Eigen::AngleAxisd(trackers_[t].yaw_rad() + h.yaw_rate_rad_s * tau_s, Eigen::Vector3d::UnitZ()));
     safety_world_->set_dynamic_pose(h.obstacle, predicted);
   }
-  const double margin_m = config_.stop_check.stop_margin_m;
+  const double margin_m = config_.stop_check.stop_margin_m + 0.5 * step_travel_m;
   const planning::Clearance near =
       safety_world_->nearest_below(q_wrapped_, planning::CollisionWorld::Bodies::All, 0.0, margin_m).dynamic_obstacle;
   for (std::size_t t = 0; t < trackers_.size(); ++t) {
