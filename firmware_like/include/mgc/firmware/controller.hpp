@@ -98,7 +98,8 @@ struct ControllerConfig {
   //! "Approach warning"). The controller never moves the machine out of the way on its own. [s]
   double approach_horizon_s = 8.0;
   //! Predicted poses this far apart; one is measured a cycle, so a scan of the horizon takes
-  //! approach_horizon_s / approach_step_s cycles. [s]
+  //! approach_horizon_s / approach_step_s cycles. Each is measured to the stop margin grown by
+  //! half the fastest moving obstacle's travel in a step, so none passes between two unseen. [s]
   double approach_step_s = 0.5;
   //! After the setpoint has finished, how long the machine may take to come within the goal
   //! tolerance before the path counts as complete anyway (stats().settle_timeouts). [µs]
