@@ -55,64 +55,48 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
   const double horizon_s = settings.prediction_horizon_s;
   const auto now_ms = [&] { return clock_ms ? clock_ms() : 0.0; };
   const double spacing_s = predicted > 0 ? horizon_s / predicted : horizon_s;
-  // The ticks within the spacing between two copies, 0 first, then in bit-reversed order: halves,
-  // quarters, eighths. An obstacle that reaches a state does so over a stretch of ticks, which
-  // this order finds in a few checks where going tick by tick would take half of them.
+  // The ticks within the spacing between two copies after the first, in bit-reversed order:
+  // halves, quarters, eighths. An obstacle that reaches a state does so over a stretch of ticks,
+  // which this order finds in a few checks where going tick by tick would take half of them.
   std::vector<double> shifts_s;
   {
     const int ticks = std::max(1, static_cast<int>(std::ceil(spacing_s / settings.tick_s - 1e-9)));
     int bits = 0;
     while ((1 << bits) < ticks) ++bits;
-    for (int b = 0; b < (1 << bits); ++b) {
+    for (int b = 1; b < (1 << bits); ++b) {
       int j = 0;
       for (int k = 0; k < bits; ++k) j |= ((b >> k) & 1) << (bits - 1 - k);
       if (j < ticks) shifts_s.push_back(j * settings.tick_s);
     }
   }
-  const auto any_moves = [&](double from_s, double to_s) {
+  // Whether the obstacles reach a machine standing at `state` between their copies, in the first
+  // `gaps` gaps after t0_s. The copies alone leave gaps: a jib slewing at 3.5 m/s at the tip moves
+  // metres between two copies 1 s apart, and a machine stopped in such a gap is run into before
+  // the next copy comes. So the copies of an obstacle that moves in its gap are shifted a tick at a
+  // time through it. The copies must stand at t0_s + k spacing (pose_obstacles(t0_s, horizon_s)).
+  const auto reached_between_copies = [&](const JointVector& state, double t0_s, int gaps, Contact* contact) {
+    bool any = false;
     for (const DynamicObstacleSpec& obstacle : scenario.dynamic_obstacles) {
-      if (obstacle.moves_between(from_s, to_s)) return true;
+      any = any || obstacle.moves_between(t0_s, t0_s + gaps * spacing_s);
+    }
+    if (predicted == 0 || !any) return false;
+    for (const double shift_s : shifts_s) {
+      for (int i = 0; i < world.num_dynamic(); ++i) {
+        const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
+        const double ahead_s = spacing_s * (i % copies);
+        if (i % copies < gaps && obstacle.moves_between(t0_s + ahead_s, t0_s + ahead_s + spacing_s)) {
+          world.set_dynamic_pose(i, obstacle.pose_at(t0_s + ahead_s + shift_s));
+        }
+      }
+      if (world.hits_dynamic(state, contact)) return true;
     }
     return false;
   };
   // Whether the obstacles, moving on as predicted, reach a machine standing at `state` within the
-  // horizon from t0_s. The copies alone leave gaps: a jib slewing at 3.5 m/s at the tip moves
-  // metres between two copies 1 s apart, and a machine stopped in such a gap is run into before
-  // the next copy comes. So while an obstacle moves, its copies are also shifted a tick at a time
-  // through the spacing between them; the unshifted check comes first and settles most states.
+  // horizon from t0_s: at a copy, or between two.
   const auto covered_at_rest = [&](const JointVector& state, double t0_s) {
-    const bool shift = predicted > 0 && any_moves(t0_s, t0_s + horizon_s);
-    for (const double shift_s : shifts_s) {
-      if (shift_s > 0.0 && !shift) break;
-      for (int i = 0; i < world.num_dynamic(); ++i) {
-        const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
-        const int k = i % copies;
-        const double ahead_s = spacing_s * k;
-        // The last copy stands at the horizon's end: there is no gap after it to follow.
-        if (shift_s > 0.0 && (k == predicted || !obstacle.moves_between(t0_s + ahead_s, t0_s + ahead_s + spacing_s))) {
-          continue;
-        }
-        world.set_dynamic_pose(i, obstacle.pose_at(t0_s + ahead_s + shift_s));
-      }
-      if (world.hits_dynamic(state)) return true;
-    }
-    return false;
-  };
-  // Whether the obstacles reach a machine stopping at `state` between their first two copies:
-  // the first gap of the prediction, where a machine stopped would have no time left to get out.
-  // The copies must stand at t0_s + k spacing (pose_obstacles(t0_s, horizon_s)); only the first
-  // of each moving obstacle is moved.
-  const auto reached_before_next_copy = [&](const JointVector& state, double t0_s, Contact& contact) {
-    if (predicted == 0 || !any_moves(t0_s, t0_s + spacing_s)) return false;
-    for (const double shift_s : shifts_s) {
-      if (shift_s == 0.0) continue;
-      for (int i = 0; i < world.num_dynamic(); i += copies) {
-        const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
-        if (obstacle.moves_between(t0_s, t0_s + spacing_s)) world.set_dynamic_pose(i, obstacle.pose_at(t0_s + shift_s));
-      }
-      if (world.hits_dynamic(state, &contact)) return true;
-    }
-    return false;
+    pose_obstacles(t0_s, horizon_s);
+    return world.hits_dynamic(state) || reached_between_copies(state, t0_s, predicted, nullptr);
   };
 
   ExecutionResult result;
@@ -282,7 +266,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     // A move may also not end where the obstacles would reach the machine before their next copy,
     // should it have to stop there: it would have no time to get out.
     if (!hits_dynamic_along(world, model, q, m.to, contact) &&
-        (escaping || !reached_before_next_copy(m.to, t_s + m.dt_s, contact))) {
+        (escaping || !reached_between_copies(m.to, t_s + m.dt_s, 1, &contact))) {
       q = m.to;
       t_s += m.dt_s;
       if (m.reaches) {
