@@ -72,6 +72,9 @@ TEST_CASE("edge checks that reuse unmoved bodies give the brute-force verdict wi
   CollisionWorld& world = *fast.world;
   CollisionWorld& reference = *slow.world;
   reference.reuse_results(false);
+  // Reuse alone here; certification has its own oracle (edge_certify_test.cpp).
+  world.certify_edges(false);
+  reference.certify_edges(false);
   REQUIRE(world.reuses_results());
   REQUIRE(world.num_dynamic() == 1);
   const MachineModel& model = *fast.model;

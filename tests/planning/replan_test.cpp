@@ -73,6 +73,7 @@ struct Checker {
     scenario.planner.dilation_m *= 0.5;
     model = build_model(scenario);
     world = build_world(scenario, *model);
+    world->certify_edges(false);  // every sample by a collision query
     fine = step_sizes(*model, 4 * scenario.planner.space_resolution);
   }
   void pose_at(double t_s) {

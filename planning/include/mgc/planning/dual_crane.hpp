@@ -142,6 +142,8 @@ class DualCraneModel final : public MachineModel {
   //! anchor_step_m between two -- the larger anchor displacement (the paper: the mean) or each
   //! tip's arc bound (the chord understates a swing) plus the cable change, whichever is more.
   [[nodiscard]] int edge_min_samples(const JointVector& from, const JointVector& to) const noexcept override;
+  //! False: the displacement bound leaves out the girder's own shift as the equilibrium moves.
+  [[nodiscard]] bool displacement_bound_is_strict() const noexcept override { return false; }
 
   //! Boom tip of crane i (0 or 1) at q. [m]
   [[nodiscard]] Eigen::Vector3d boom_tip(const JointVector& q, int crane) const noexcept;

@@ -94,6 +94,10 @@ class MachineModel {
   [[nodiscard]] double displacement_bound(int joint) const noexcept {
     return displacement_bound_[static_cast<std::size_t>(joint)];
   }
+  //! Whether displacement_bound() bounds every body point's motion along any straight joint-space
+  //! motion, so that a clearance from one configuration certifies those within that travel
+  //! (CollisionWorld::certify_edges). Default: true.
+  [[nodiscard]] virtual bool displacement_bound_is_strict() const noexcept { return true; }
   //! The same bound, valid only along the straight edge from -> to and so possibly tighter. Edge
   //! checks use it to bound how far the machine moves between samples. Default: the global one.
   [[nodiscard]] virtual double edge_displacement_bound(const JointVector& from, const JointVector& to,

@@ -1,0 +1,223 @@
+// SPDX-License-Identifier: Apache-2.0
+// CollisionWorld certifies edge samples collision free from clearance balls (certify_edges). Here
+// that gives, edge for edge, the verdict of a world that certifies nothing and reuses nothing, on
+// every machine kind the balls apply to, with the dynamic obstacles moved between calls; and the
+// balls go when an obstacle moves.
+#include <catch2/catch.hpp>
+
+#include <cstring>
+#include <string>
+
+#include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/planners/node_tree.hpp"
+#include "mgc/planning/planners/problem.hpp"
+#include "mgc/planning/random.hpp"
+#include "mgc/planning/scenario.hpp"
+#include "test_support.hpp"
+
+using namespace mgc::planning;
+
+namespace {
+
+bool same_bits(const JointVector& a, const JointVector& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
+}
+
+struct Tally {
+  int valid = 0;
+  int collision = 0;
+  int dynamic = 0;
+  int other = 0;  // joint range, constraint, rule
+};
+
+//! Edges as planners make them -- runs of short one-joint steps, each from where the last ended
+//! (the balls' best case), and random one- and multi-joint edges -- checked by a certifying world
+//! and by a reference that certifies and reuses nothing. Verdict, reason, contact and first invalid
+//! sample must agree bit for bit.
+Tally compare_with_reference(const std::string& scenario, int edges, std::uint64_t seed, double certified_share) {
+  const auto path = mgc::test::source_path("scenarios/" + scenario);
+  io::LoadedScenario fast = io::load_and_build(path);
+  io::LoadedScenario slow = io::load_and_build(path);
+  CollisionWorld& world = *fast.world;
+  CollisionWorld& reference = *slow.world;
+  reference.certify_edges(false);
+  reference.reuse_results(false);
+  REQUIRE(world.certifies_edges());
+  REQUIRE_FALSE(reference.certifies_edges());
+  const MachineModel& model = *fast.model;
+  const PlanningProblem problem = planning_problem(fast.scenario, model, world);
+  const JointVector& step = problem.step;
+  const int dof = model.dof();
+  const auto& dynamics = fast.scenario.dynamic_obstacles;
+
+  Random random(seed);
+  Tally tally;
+  const auto move_dynamics = [&] {
+    for (std::size_t d = 0; d < dynamics.size(); ++d) {
+      // Somewhere along its script, or half the time anywhere within 25 m of the machine's base.
+      Eigen::Isometry3d pose = dynamics[d].pose_at(random.uniform(0.0, dynamics[d].motion.back().t_s + 1.0));
+      if (random.uniform() < 0.5) {
+        const Eigen::Vector3d base_m = model.world_from_base().translation();
+        pose = Eigen::Translation3d(base_m.x() + random.uniform(-25.0, 25.0), base_m.y() + random.uniform(-25.0, 25.0),
+                                    pose.translation().z()) *
+               Eigen::AngleAxisd(random.uniform(-3.14159, 3.14159), Eigen::Vector3d::UnitZ());
+      }
+      world.set_dynamic_pose(static_cast<int>(d), pose);
+      reference.set_dynamic_pose(static_cast<int>(d), pose);
+    }
+  };
+  const auto random_configuration = [&] {
+    JointVector q = uniform_sample(model, random);
+    for (int tries = 0; tries < 1000 && !model.check_constraints(q).ok(); ++tries) q = uniform_sample(model, random);
+    return q;
+  };
+  const auto check = [&](const JointVector& from, const JointVector& to) {
+    JointVector at_fast = JointVector::Zero(dof);
+    JointVector at_slow = JointVector::Zero(dof);
+    const Validity v = world.validate_edge(from, to, step, &at_fast);
+    const Validity r = reference.validate_edge(from, to, step, &at_slow);
+    INFO(scenario << ": from " << from.transpose() << " to " << to.transpose() << ": " << world.describe(v)
+                  << " against " << reference.describe(r));
+    REQUIRE(v.status == r.status);
+    REQUIRE(v.joint == r.joint);
+    REQUIRE(v.constraint.status == r.constraint.status);
+    REQUIRE(v.rule_limit == r.rule_limit);
+    REQUIRE(v.contact.with == r.contact.with);
+    REQUIRE(v.contact.body == r.contact.body);
+    REQUIRE(v.contact.other == r.contact.other);
+    if (!r.valid()) REQUIRE(same_bits(at_fast, at_slow));
+    if (r.valid()) {
+      ++tally.valid;
+    } else if (r.status == Validity::Status::Collision) {
+      ++tally.collision;
+      if (r.contact.with == Contact::With::Dynamic) ++tally.dynamic;
+    } else {
+      ++tally.other;
+    }
+    return r.valid();
+  };
+
+  for (int e = 0; e < edges; ++e) {
+    if (!dynamics.empty() && random.uniform() < 0.3) move_dynamics();
+    const JointVector from = random_configuration();
+    const double kind = random.uniform();
+    if (kind < 0.5) {
+      // A run along one joint, 1 to 5 steps at a time, until it is refused or has made 12 moves.
+      const int j = static_cast<int>(random.uniform() * dof) % dof;
+      const double sign = random.uniform() < 0.5 ? -1.0 : 1.0;
+      JointVector q = from;
+      for (int move = 0; move < 12; ++move) {
+        JointVector next = q;
+        next[j] += sign * random.uniform(1.0, 5.0) * step[j];
+        if (model.joints()[static_cast<std::size_t>(j)].continuous) next[j] = wrap_angle(next[j]);
+        if (!check(q, next)) break;
+        q = next;
+      }
+    } else {
+      JointVector to = from;
+      if (kind < 0.75) {
+        const int j = static_cast<int>(random.uniform() * dof) % dof;
+        to[j] += random.uniform(-40.0, 40.0) * step[j];
+      } else {
+        for (int i = 0; i < dof; ++i) to[i] += random.uniform(-20.0, 20.0) * step[i];
+      }
+      for (int i = 0; i < dof; ++i) {
+        if (model.joints()[static_cast<std::size_t>(i)].continuous) to[i] = wrap_angle(to[i]);
+      }
+      (void)check(from, to);
+    }
+  }
+  // Certification did the work: a share of all samples went without a collision query.
+  const double certified = static_cast<double>(world.certified_samples());
+  const double checked = static_cast<double>(world.collision_checks());
+  CAPTURE(scenario, tally.valid, tally.collision, tally.dynamic, tally.other, certified, checked,
+          reference.collision_checks());
+  CHECK(certified / (certified + checked) > certified_share);
+  CHECK(world.collision_checks() + world.certified_samples() == reference.collision_checks());
+  return tally;
+}
+
+}  // namespace
+
+// Thresholds a little under what these seeds give (edges valid, in collision, with a dynamic
+// obstacle, refused otherwise; share of samples certified), so that every kind of verdict is met.
+TEST_CASE("certified edge checks give the full check's verdict on the mobile crane site", "[unit][oracle]") {
+  const Tally t = compare_with_reference("thesis-steel-frame.yaml", 3000, 20261202, 0.6);  // 0.75
+  CHECK(t.valid > 5000);      // 6610
+  CHECK(t.collision > 700);   // 928
+  CHECK(t.dynamic > 200);     // 259
+  CHECK(t.other > 1000);      // 1482
+}
+
+TEST_CASE("certified edge checks give the full check's verdict on the tower crane site", "[unit][oracle]") {
+  const Tally t = compare_with_reference("thesis-steel-frame-tower.yaml", 3000, 20261203, 0.8);  // 0.92
+  CHECK(t.valid > 12000);     // 15263
+  CHECK(t.collision > 400);   // 529
+  CHECK(t.dynamic > 200);     // 258
+  CHECK(t.other > 250);       // 332
+}
+
+TEST_CASE("certified edge checks give the full check's verdict on the excavator sites", "[unit][oracle]") {
+  const Tally pipes = compare_with_reference("excavator-pipelines.yaml", 3000, 20261204, 0.15);  // 0.23
+  CHECK(pipes.valid > 7000);     // 9341
+  CHECK(pipes.collision > 1100);  // 1460
+  CHECK(pipes.other > 350);       // 471
+  const Tally truck = compare_with_reference("excavator-truck.yaml", 3000, 20261205, 0.15);  // 0.23
+  CHECK(truck.valid > 7000);      // 9072
+  CHECK(truck.collision > 1100);  // 1470
+  CHECK(truck.dynamic > 60);      // 80
+  CHECK(truck.other > 350);       // 483
+}
+
+TEST_CASE("a clearance ball goes when a dynamic obstacle moves", "[unit]") {
+  io::LoadedScenario loaded = io::load_and_build(mgc::test::source_path("scenarios/thesis-steel-frame.yaml"));
+  CollisionWorld& world = *loaded.world;
+  const MachineModel& model = *loaded.model;
+  const PlanningProblem problem = planning_problem(loaded.scenario, model, world);
+  REQUIRE(world.num_dynamic() == 1);
+  // Crane 2 far away; a slew from the start, checked once so that balls cover it.
+  world.set_dynamic_pose(0, Eigen::Isometry3d(Eigen::Translation3d(-500.0, 0.0, 0.0)));
+  const JointVector from = loaded.scenario.start;
+  JointVector to = from;
+  to[0] = wrap_angle(to[0] + 20.0 * problem.step[0]);
+  REQUIRE(world.validate_edge(from, to, problem.step).valid());
+  const std::uint64_t certified = world.certified_samples();
+  REQUIRE(world.validate_edge(from, to, problem.step).valid());
+  REQUIRE(world.certified_samples() > certified);  // the second pass went through the balls
+
+  // Crane 2 moved until it stands in the edge's midpoint: the balls found without it must go.
+  const JointVector middle = model.interpolate(from, to, 0.5);
+  Kinematics k;
+  model.forward_kinematics(middle, k);
+  const std::size_t load = model.bodies().size() - 1;
+  const Eigen::Vector3d load_m = k.bodies[load].world_from_body.translation();
+  bool hit = false;
+  for (double dx = -40.0; dx <= 40.0 && !hit; dx += 0.5) {
+    for (double dy = -40.0; dy <= 40.0 && !hit; dy += 0.5) {
+      world.set_dynamic_pose(0, Eigen::Isometry3d(Eigen::Translation3d(load_m.x() + dx, load_m.y() + dy, 0.0)));
+      hit = world.hits_dynamic(middle);
+    }
+  }
+  REQUIRE(hit);
+  JointVector at;
+  const Validity v = world.validate_edge(from, to, problem.step, &at);
+  CHECK(v.status == Validity::Status::Collision);
+  CHECK(v.contact.with == Contact::With::Dynamic);
+}
+
+TEST_CASE("the dual crane never certifies an edge: its displacement bound leaves out the girder's shift", "[unit]") {
+  io::LoadedScenario loaded = io::load_and_build(mgc::test::source_path("scenarios/kim-s1.yaml"));
+  CollisionWorld& world = *loaded.world;
+  REQUIRE_FALSE(loaded.model->displacement_bound_is_strict());
+  CHECK_FALSE(world.certifies_edges());
+  const PlanningProblem problem = planning_problem(loaded.scenario, *loaded.model, world);
+  Random random(7);
+  for (int e = 0; e < 200; ++e) {
+    const JointVector from = uniform_sample(*loaded.model, random);
+    const JointVector to = uniform_sample(*loaded.model, random);
+    (void)world.validate_edge(from, to, problem.step);
+  }
+  CHECK(world.certified_samples() == 0);
+  CHECK(world.collision_checks() > 0);
+}
