@@ -291,8 +291,13 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     event.t_s = t_s;
     event.at = q;
     pose_obstacles(t_s, escaping ? 0.0 : horizon_s);
+    // With a prediction and nothing moving over it, what blocks the path now still will.
+    bool still = predicted > 0 && !escaping;
+    for (const DynamicObstacleSpec& obstacle : scenario.dynamic_obstacles) {
+      still = still && !obstacle.moves_between(t_s, t_s + horizon_s);
+    }
     const double repair_start_ms = now_ms();
-    status = replanner.replan(q, static_cast<int>(next));
+    status = replanner.replan(q, static_cast<int>(next), still);
     while (status == PlannerStatus::Running) status = replanner.step(settings.iteration_budget);
     if (status == PlannerStatus::InvalidStart && predicted > 0 && !escaping) {
       // Still inside the prediction after retreating as far as it could: get away from where

@@ -30,11 +30,11 @@ class CountingReplanner final : public Replanner {
     return s;
   }
   [[nodiscard]] const std::vector<JointVector>& path() const noexcept override { return inner_->path(); }
-  [[nodiscard]] PlannerStatus replan(const JointVector& q, int next) noexcept override {
+  [[nodiscard]] PlannerStatus replan(const JointVector& q, int next, bool obstacles_still) noexcept override {
     repairing_ = true;
     ++repairs;
     const long before = mgc::test::allocation_count();
-    const PlannerStatus s = inner_->replan(q, next);
+    const PlannerStatus s = inner_->replan(q, next, obstacles_still);
     allocations += mgc::test::allocation_count() - before;
     return s;
   }

@@ -3,6 +3,8 @@
 // stops the machine and calls them when a dynamic obstacle blocks its next move.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+
 #include <cmath>
 #include <string>
 #include <vector>
@@ -373,6 +375,70 @@ TEST_CASE("re-planning is repeatable: the same seed gives the same execution", "
       REQUIRE(results[0].trajectory[k].q == results[1].trajectory[k].q);
     }
   }
+}
+
+TEST_CASE("con-con-mod told the obstacles stand still bridges past a parked crane across a later edge", "[replan]") {
+  // Crane 2 parked across an edge of the path beyond the next node, every node left free: the
+  // paper's repair bridges to the next node and keeps the blocked edge; told that nothing moves,
+  // the repair bridges past it, and every edge of the repaired path is clear.
+  Site site = load_site("thesis-steel-frame.yaml", 3);
+  CollisionWorld& world = *site.loaded.world;
+  const MachineModel& model = *site.loaded.model;
+  const auto plan = [&] {
+    auto r = make_replanner("drrt-con-con-mod");
+    PlannerStatus s = r->reset(site.problem, replan_settings(site.loaded.scenario));
+    while (s == PlannerStatus::Running) s = r->step(100);
+    REQUIRE(s == PlannerStatus::Solved);
+    return r;
+  };
+  const auto paper = plan();
+  const auto still = plan();
+  const std::vector<JointVector> path = paper->path();
+  REQUIRE(still->path() == path);
+  REQUIRE(path.size() >= 4);
+
+  const auto park = [&](const Eigen::Isometry3d& pose) {
+    for (int d = 0; d < world.num_dynamic(); ++d) world.set_dynamic_pose(d, pose);
+  };
+  const auto edge_blocked = [&](const std::vector<JointVector>& p) {
+    for (std::size_t e = 0; e + 1 < p.size(); ++e) {
+      if (!world.validate_edge(p[e], p[e + 1], site.problem.step).valid()) return true;
+    }
+    return false;
+  };
+  // Around the load at the middle of each later edge, a parking place that blocks that edge and
+  // leaves every node free.
+  bool parked = false;
+  for (std::size_t e = 1; e + 1 < path.size() && !parked; ++e) {
+    const JointVector middle = model.interpolate(path[e], path[e + 1], 0.5);
+    Kinematics k;
+    model.forward_kinematics(middle, k);
+    const Eigen::Vector3d load_m = k.bodies[model.bodies().size() - 1].world_from_body.translation();
+    for (double dx = -30.0; dx <= 30.0 && !parked; dx += 1.0) {
+      for (double dy = -30.0; dy <= 30.0 && !parked; dy += 1.0) {
+        park(Eigen::Isometry3d(Eigen::Translation3d(load_m.x() + dx, load_m.y() + dy, 0.0)));
+        if (!world.hits_dynamic(middle)) continue;
+        parked = std::none_of(path.begin(), path.end(), [&](const JointVector& q) { return world.hits_dynamic(q); });
+      }
+    }
+  }
+  REQUIRE(parked);
+  REQUIRE(edge_blocked(path));
+
+  PlannerStatus s = paper->replan(path.front(), 1, false);
+  while (s == PlannerStatus::Running) s = paper->step(100);
+  REQUIRE(s == PlannerStatus::Solved);
+  CHECK(edge_blocked(paper->path()));
+  CHECK(paper->stats().checked_nodes < static_cast<int>(paper->path().size()));
+
+  s = still->replan(path.front(), 1, true);
+  while (s == PlannerStatus::Running) s = still->step(100);
+  REQUIRE(s == PlannerStatus::Solved);
+  CHECK_FALSE(edge_blocked(still->path()));
+  CHECK(still->path().front() == path.front());
+  CHECK(still->path().back() == path.back());
+  CHECK(still->stats().checked_nodes == static_cast<int>(still->path().size()));
+  CHECK(still->stats().invalidated_nodes >= 1);
 }
 
 TEST_CASE("an obstacle on the goal is GoalOccupied: the path is kept and a later repair succeeds", "[replan]") {

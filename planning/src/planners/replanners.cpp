@@ -92,7 +92,10 @@ class DrrtReplanner final : public Replanner {
 
   [[nodiscard]] const std::vector<JointVector>& path() const noexcept override { return path_; }
 
-  [[nodiscard]] PlannerStatus replan(const JointVector& q_machine, int next) noexcept override {
+  // DRRT checks every node at a repair and re-checks the old edges of its regrown path, whether
+  // the obstacles move or not.
+  [[nodiscard]] PlannerStatus replan(const JointVector& q_machine, int next,
+                                     [[maybe_unused]] bool obstacles_still) noexcept override {
     if (path_.empty()) return status_;
     ++stats_.repairs;
     repairing_ = true;
@@ -204,9 +207,12 @@ class DrrtReplanner final : public Replanner {
 
 //! Seed 000's DRRT-Con-Con-Mod (Fig. 8): keep the rest of the path and bridge from the machine's
 //! stop to the first remaining node that is still free, with RRT-Con-Con-Mod; when the bridge
-//! fails, drop that node and bridge to the next. Only the leading invalid nodes are dropped and
-//! later edges are not checked: far obstacles may have moved by the time the machine gets there,
-//! and a later blocked motion simply triggers another repair (the paper's design, L127, L283).
+//! fails, drop that node and bridge to the next. The paper drops only the leading invalid nodes
+//! and leaves later edges unchecked (far obstacles may have moved by the time the machine gets
+//! there, L127, L283). When the caller's prediction has the obstacles standing still, the bridge
+//! also goes past the last old edge that is blocked now: an obstacle parked across the old route
+//! would otherwise stop the machine at each of its edges in turn, each repair bridging only to
+//! the far end of one.
 //! When every remaining node collides the goal itself is covered -- the paper leaves this case
 //! open; here it is GoalOccupied, the path is kept, and the caller holds and asks again.
 class ConConModReplanner final : public Replanner {
@@ -248,16 +254,27 @@ class ConConModReplanner final : public Replanner {
 
   [[nodiscard]] const std::vector<JointVector>& path() const noexcept override { return path_; }
 
-  [[nodiscard]] PlannerStatus replan(const JointVector& q_machine, int next) noexcept override {
+  [[nodiscard]] PlannerStatus replan(const JointVector& q_machine, int next, bool obstacles_still) noexcept override {
     if (path_.empty()) return status_;
     ++stats_.repairs;
     repairing_ = true;
+    checked_old_path_ = obstacles_still;
     stats_.bridge_attempts = 0;
     stats_.invalidated_nodes = 0;
     stats_.checked_nodes = 0;
     if (!problem_->world->validate(q_machine).valid()) return status_ = PlannerStatus::InvalidStart;
     bridge_.start = q_machine;
     goal_index_ = static_cast<std::size_t>(std::clamp(next, 1, static_cast<int>(path_.size()) - 1));
+    if (obstacles_still) {
+      // The last blocked old edge: the bridge ends at its far node or later.
+      for (std::size_t e = path_.size() - 1; e-- > goal_index_;) {
+        if (!problem_->world->validate_edge(path_[e], path_[e + 1], problem_->step).valid()) {
+          stats_.invalidated_nodes += static_cast<int>(e + 1 - goal_index_);
+          goal_index_ = e + 1;
+          break;
+        }
+      }
+    }
     return status_ = bridge();
   }
 
@@ -290,7 +307,7 @@ class ConConModReplanner final : public Replanner {
     candidate_.assign(b.begin(), b.end());
     candidate_.insert(candidate_.end(), path_.begin() + static_cast<std::ptrdiff_t>(goal_index_ + 1), path_.end());
     path_.swap(candidate_);
-    stats_.checked_nodes = static_cast<int>(b.size());
+    stats_.checked_nodes = static_cast<int>(checked_old_path_ ? path_.size() : b.size());
     return PlannerStatus::Solved;
   }
 
@@ -300,6 +317,7 @@ class ConConModReplanner final : public Replanner {
   ReplanSettings settings_;
   PlannerStatus status_ = PlannerStatus::NotReset;
   bool repairing_ = false;
+  bool checked_old_path_ = false;  //!< the current repair checked the old path's edges too
   std::size_t goal_index_ = 0;
   std::vector<JointVector> path_;
   std::vector<JointVector> candidate_;

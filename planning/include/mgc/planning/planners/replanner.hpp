@@ -27,7 +27,8 @@ struct ReplanStats {
   int invalidated_nodes = 0;   //!< removed by the last repair (DRRT: trimmed; Con-Con-Mod: dropped path nodes)
   int bridge_attempts = 0;     //!< Con-Con-Mod: bridges tried by the last repair
   //! Leading nodes of the last repaired path whose edges were checked against the poses that repair
-  //! saw: DRRT all of them, Con-Con-Mod its bridge (the rest of its old path is not re-checked).
+  //! saw: DRRT all of them; Con-Con-Mod its bridge, or the whole path when replan() was told the
+  //! obstacles stand still.
   int checked_nodes = 0;
   bool dual_phase_used = false;
   std::uint64_t collision_checks = 0;
@@ -61,8 +62,11 @@ class Replanner {
   //! path()[next] (or exactly at one of them). Returns Running, Solved (repaired at once),
   //! InvalidStart (q_machine itself is invalid now), GoalOccupied (an obstacle covers the goal:
   //! hold and call again once it has moved) or a failure; after a failure the old path stays in
-  //! path() and a later replan() may succeed.
-  [[nodiscard]] virtual PlannerStatus replan(const JointVector& q_machine, int next) noexcept = 0;
+  //! path() and a later replan() may succeed. `obstacles_still`: the caller's prediction has no
+  //! dynamic obstacle moving over its horizon, so whatever blocks the rest of the path now will
+  //! still block it when the machine gets there (Con-Con-Mod then bridges past the last blocked
+  //! edge of its old path, not only past the nodes ahead).
+  [[nodiscard]] virtual PlannerStatus replan(const JointVector& q_machine, int next, bool obstacles_still = false) noexcept = 0;
   [[nodiscard]] virtual ReplanStats stats() const noexcept = 0;
 };
 
