@@ -90,7 +90,8 @@ struct ExecutionResult {
 //! whichever way out is clear soonest, simulated against the obstacles' scripted motion over the
 //! prediction horizon. For a machine at rest the prediction follows the obstacles a tick at a
 //! time, not only at the copies, so it is not left standing in the gap between two copies. After
-//! a failed repair the machine holds for `hold_s` and looks again.
+//! a failed repair the machine holds for `hold_s` and looks again. A repair is told the obstacles
+//! stand still (Replanner::replan) when, with a prediction, none moves over its horizon.
 //! `world` must be the problem's, built from `scenario` (dynamic obstacles in scenario order).
 //! `clock_ms` times the first plan and the repairs; without it those times are 0.
 [[nodiscard]] ExecutionResult execute_with_replanning(const Scenario& scenario, const PlanningProblem& problem,
