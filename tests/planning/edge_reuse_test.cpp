@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 
 #include "mgc/planning/collision_world.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
@@ -15,9 +14,11 @@
 #include "mgc/planning/planners/problem.hpp"
 #include "mgc/planning/random.hpp"
 #include "mgc/planning/scenario.hpp"
+#include "joint_bits.hpp"
 #include "test_support.hpp"
 
 using namespace mgc::planning;
+using mgc::test::same_bits;
 using mgc::test::kDeg;
 
 namespace {
@@ -44,10 +45,6 @@ Validity brute_force_edge(CollisionWorld& world, const JointVector& from, const 
     }
   }
   return {};
-}
-
-bool same_bits(const JointVector& a, const JointVector& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
 }
 
 struct Tally {
