@@ -55,6 +55,12 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
   const double horizon_s = settings.prediction_horizon_s;
   const auto now_ms = [&] { return clock_ms ? clock_ms() : 0.0; };
   const double spacing_s = predicted > 0 ? horizon_s / predicted : horizon_s;
+  const auto any_moves = [&](double from_s, double to_s) {
+    for (const DynamicObstacleSpec& obstacle : scenario.dynamic_obstacles) {
+      if (obstacle.moves_between(from_s, to_s)) return true;
+    }
+    return false;
+  };
   // The ticks within the spacing between two copies after the first, in bit-reversed order:
   // halves, quarters, eighths. An obstacle that reaches a state does so over a stretch of ticks,
   // which this order finds in a few checks where going tick by tick would take half of them.
@@ -75,11 +81,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
   // the next copy comes. So the copies of an obstacle that moves in its gap are shifted a tick at a
   // time through it. The copies must stand at t0_s + k spacing (pose_obstacles(t0_s, horizon_s)).
   const auto reached_between_copies = [&](const JointVector& state, double t0_s, int gaps, Contact* contact) {
-    bool any = false;
-    for (const DynamicObstacleSpec& obstacle : scenario.dynamic_obstacles) {
-      any = any || obstacle.moves_between(t0_s, t0_s + gaps * spacing_s);
-    }
-    if (predicted == 0 || !any) return false;
+    if (predicted == 0 || !any_moves(t0_s, t0_s + gaps * spacing_s)) return false;
     for (const double shift_s : shifts_s) {
       for (int i = 0; i < world.num_dynamic(); ++i) {
         const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
@@ -292,10 +294,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     event.at = q;
     pose_obstacles(t_s, escaping ? 0.0 : horizon_s);
     // With a prediction and nothing moving over it, what blocks the path now still will.
-    bool still = predicted > 0 && !escaping;
-    for (const DynamicObstacleSpec& obstacle : scenario.dynamic_obstacles) {
-      still = still && !obstacle.moves_between(t_s, t_s + horizon_s);
-    }
+    const bool still = predicted > 0 && !escaping && !any_moves(t_s, t_s + horizon_s);
     const double repair_start_ms = now_ms();
     status = replanner.replan(q, static_cast<int>(next), still);
     while (status == PlannerStatus::Running) status = replanner.step(settings.iteration_budget);
