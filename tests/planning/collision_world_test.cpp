@@ -1,6 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <catch2/catch.hpp>
 
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numbers>
+#include <vector>
+
 #include "mgc/planning/collision_world.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/mobile_crane.hpp"
@@ -282,4 +288,28 @@ TEST_CASE("collision world: the fixed bodies keep their own dilation when it is 
   CHECK(wider->clearance(q, B::Fixed).distance_m == Approx(fixed_m).margin(1e-6));
   CHECK(wider->clearance(q, B::Moving).distance_m == Approx(moving_m).margin(1e-9));
   CHECK_THROWS_AS(wider->set_fixed_body_dilation(-0.1), std::invalid_argument);
+}
+
+TEST_CASE("wrap_angle returns the fmod formula's value bit for bit", "[unit]") {
+  constexpr double kPi = std::numbers::pi;
+  const auto reference = [](double angle_rad) {
+    double wrapped = std::fmod(angle_rad + kPi, 2.0 * kPi);
+    if (wrapped < 0.0) wrapped += 2.0 * kPi;
+    return wrapped - kPi;
+  };
+  const auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  Random random(5);
+  // Differences of wrapped angles and one-step moves past +-pi (the fast path), the exact edges
+  // of each branch, and angles many turns out (fmod itself).
+  std::vector<double> angles = {0.0, -0.0, kPi, -kPi, 2.0 * kPi, -2.0 * kPi, 3.0 * kPi, -3.0 * kPi, 4.0 * kPi,
+                                std::nextafter(kPi, 0.0), std::nextafter(-kPi, 0.0), std::nextafter(3.0 * kPi, 0.0),
+                                std::nextafter(3.0 * kPi, 10.0), 1e6, -1e6};
+  for (int n = 0; n < 200000; ++n) angles.push_back(random.uniform(-4.0 * kPi, 4.0 * kPi));
+  for (int n = 0; n < 2000; ++n) angles.push_back(random.uniform(-1e4, 1e4));
+  for (const double angle : angles) {
+    CAPTURE(angle);
+    REQUIRE(same(wrap_angle(angle), reference(angle)));
+  }
+  CHECK(std::isnan(wrap_angle(std::numeric_limits<double>::quiet_NaN())));
+  CHECK(std::isnan(wrap_angle(std::numeric_limits<double>::infinity())));
 }
