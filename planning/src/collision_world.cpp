@@ -430,6 +430,9 @@ struct CollisionWorld::Impl {
   //! were at `epoch`.
   struct Ball {
     JointVector centre;
+    //! Per joint, the model's displacement bound over a joint box around the centre that holds
+    //! every configuration the ball can certify (add_ball). [m/rad | m/m]
+    JointVector bound;
     double radius_m = 0.0;  //!< 0: empty
     std::uint64_t epoch = 0;
   };
@@ -776,17 +779,17 @@ Validity CollisionWorld::validate_without_collision(const JointVector& q) const 
   return v;
 }
 
-double CollisionWorld::travel_m(const JointVector& from, const JointVector& to) const noexcept {
-  const JointVector delta = model_.difference(from, to);
-  double travel = 0.0;
-  for (int i = 0; i < model_.dof(); ++i) travel += model_.displacement_bound(i) * std::abs(delta[i]);
-  return travel;
-}
-
 bool CollisionWorld::in_ball(const JointVector& q) const noexcept {
   const auto& impl = *impl_;
-  for (const auto& ball : impl.balls) {
-    if (ball.radius_m > 0.0 && ball.epoch == impl.dynamic_epoch && travel_m(ball.centre, q) < ball.radius_m) return true;
+  const std::size_t count = impl.balls.size();
+  // Newest first: a run of samples mostly stays in the ball its last full check left.
+  for (std::size_t k = 1; k <= count; ++k) {
+    const auto& ball = impl.balls[(impl.next_ball + count - k) % count];
+    if (ball.radius_m <= 0.0 || ball.epoch != impl.dynamic_epoch) continue;
+    const JointVector delta = model_.difference(ball.centre, q);
+    double travel_m = 0.0;
+    for (int i = 0; i < model_.dof(); ++i) travel_m += ball.bound[i] * std::abs(delta[i]);
+    if (travel_m < ball.radius_m) return true;
   }
   return false;
 }
@@ -843,6 +846,25 @@ void CollisionWorld::add_ball(const JointVector& q) noexcept {
   ball.centre = q;
   ball.radius_m = radius_m;
   ball.epoch = impl.dynamic_epoch;
+  // The bound is taken over the box q +- radius / (the bound at q) per joint, within the joint
+  // ranges. A box bound is nowhere below the bound at q, so a configuration whose travel under it
+  // is below the radius moves no joint past the box's half width: it and its straight edge from
+  // q lie in the box, where the bound holds. Tighter than the global bound wherever the boom is
+  // short or steep.
+  JointVector lo = q;
+  JointVector hi = q;
+  for (int i = 0; i < model_.dof(); ++i) {
+    const JointSpec& joint = model_.joints()[static_cast<std::size_t>(i)];
+    const double half_width = radius_m / model_.box_displacement_bound(q, q, i);
+    lo[i] = q[i] - half_width;
+    hi[i] = q[i] + half_width;
+    if (!joint.continuous) {
+      lo[i] = std::max(lo[i], joint.position_min);
+      hi[i] = std::min(hi[i], joint.position_max);
+    }
+  }
+  ball.bound.resize(model_.dof());
+  for (int i = 0; i < model_.dof(); ++i) ball.bound[i] = model_.box_displacement_bound(lo, hi, i);
 }
 
 Validity CollisionWorld::validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,

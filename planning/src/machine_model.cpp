@@ -101,6 +101,11 @@ double MachineModel::edge_displacement_bound(const JointVector& /*from*/, const 
   return displacement_bound(joint);
 }
 
+double MachineModel::box_displacement_bound(const JointVector& /*lo*/, const JointVector& /*hi*/,
+                                            int joint) const noexcept {
+  return displacement_bound(joint);
+}
+
 int MachineModel::edge_min_samples(const JointVector& /*from*/, const JointVector& /*to*/) const noexcept { return 1; }
 
 int MachineModel::joint_out_of_range(const JointVector& q) const noexcept {

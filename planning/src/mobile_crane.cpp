@@ -57,11 +57,19 @@ MobileCrane::MobileCrane(std::string name, std::vector<JointSpec> joints, const 
 }
 
 double MobileCrane::edge_displacement_bound(const JointVector& from, const JointVector& to, int joint) const noexcept {
-  const double boom_m = std::max(from[kBoomLength], to[kBoomLength]);
+  return reach_bound(std::max(from[kBoomLength], to[kBoomLength]),
+                     std::min(from[kBoomElevation], to[kBoomElevation]), joint);
+}
+
+double MobileCrane::box_displacement_bound(const JointVector& lo, const JointVector& hi, int joint) const noexcept {
+  return reach_bound(hi[kBoomLength], lo[kBoomElevation], joint);
+}
+
+double MobileCrane::reach_bound(double boom_m, double lowest_elevation, int joint) const noexcept {
   switch (joint) {
     case kSwing: {
-      // cos falls over [0, 90 deg], so the lower elevation of the two ends reaches furthest out.
-      const double elevation = std::clamp(std::min(from[kBoomElevation], to[kBoomElevation]), 0.0, 0.5 * std::numbers::pi);
+      // cos falls over [0, 90 deg], so the lowest elevation reaches furthest out.
+      const double elevation = std::clamp(lowest_elevation, 0.0, 0.5 * std::numbers::pi);
       return std::max(superstructure_reach_m_,
                       std::abs(geometry_.boom_foot_forward_m) + boom_m * std::cos(elevation) + boom_margin_m_);
     }

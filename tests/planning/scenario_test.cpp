@@ -201,12 +201,23 @@ TEST_CASE("displacement bounds hold for every body corner of every model", "[ora
       if (n % 2 == 0) to = from;  // half the edges are single points: the bound at q itself
       const JointVector q = model.interpolate(from, to, random.uniform());
       const int joint = n % model.dof();
-      const double bound = model.edge_displacement_bound(from, to, joint);
+      // Every fourth q is instead a point of the box spanned by from and to, under the box bound.
+      const bool in_box = n % 4 == 1;
+      const JointVector lo = from.cwiseMin(to);
+      const JointVector hi = from.cwiseMax(to);
+      JointVector p = q;
+      if (in_box) {
+        for (int j = 0; j < model.dof(); ++j) p[j] = random.uniform(lo[j], hi[j]);
+      }
+      const double bound =
+          in_box ? model.box_displacement_bound(lo, hi, joint) : model.edge_displacement_bound(from, to, joint);
       REQUIRE(bound <= model.displacement_bound(joint) + 1e-12);
+      // Clearance balls rely on a box's bound being nowhere below the bound at one of its points.
+      if (in_box) REQUIRE(bound >= model.box_displacement_bound(p, p, joint));
       const double delta = 1e-4;
-      JointVector moved = q;
+      JointVector moved = p;
       moved[joint] += delta;
-      model.forward_kinematics(q, a);
+      model.forward_kinematics(p, a);
       model.forward_kinematics(moved, b);
       for (std::size_t body = 0; body < model.bodies().size(); ++body) {
         // The corners of each body's bounding box (a capsule's too), before and after.

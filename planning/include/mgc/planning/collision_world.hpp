@@ -177,11 +177,11 @@ class CollisionWorld {
   //! validate_edge() checks fully also leaves a clearance ball: a lower bound on how far its
   //! moving bodies are from every obstacle and from each other, found from bounding boxes alone (no
   //! narrow phase). A later sample, of this edge or another, whose travel from the ball's centre
-  //! (MachineModel::displacement_bound per joint times its motion, summed) is below that bound
-  //! cannot collide, so only its joint ranges, constraints and rule are checked. Verdicts are
-  //! unchanged; only collision_checks() drop. Balls last until a dynamic obstacle moves or
-  //! forget_results(); a model whose displacement bound is not strict (the dual crane's girder
-  //! equilibrium) never certifies.
+  //! (MachineModel::box_displacement_bound over a box around it, per joint times its motion,
+  //! summed) is below that bound cannot collide, so only its joint ranges, constraints and rule
+  //! are checked. Verdicts are unchanged; only collision_checks() drop. Balls last until a
+  //! dynamic obstacle moves or forget_results(); a model whose displacement bound is not strict
+  //! (the dual crane's girder equilibrium) never certifies.
   void certify_edges(bool on) noexcept;
   [[nodiscard]] bool certifies_edges() const noexcept;
   //! Edge samples certified collision free by a clearance ball since construction.
@@ -192,8 +192,6 @@ class CollisionWorld {
 
  private:
   [[nodiscard]] Validity validate_without_collision(const JointVector& q) const noexcept;
-  //! The displacement bound's travel along the straight edge from -> to. [m]
-  [[nodiscard]] double travel_m(const JointVector& from, const JointVector& to) const noexcept;
   [[nodiscard]] bool in_ball(const JointVector& q) const noexcept;
   //! Leaves a clearance ball at q, where the machine is posed and free (unless waiting).
   void add_ball(const JointVector& q) noexcept;

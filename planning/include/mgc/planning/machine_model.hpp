@@ -102,6 +102,11 @@ class MachineModel {
   //! checks use it to bound how far the machine moves between samples. Default: the global one.
   [[nodiscard]] virtual double edge_displacement_bound(const JointVector& from, const JointVector& to,
                                                        int joint) const noexcept;
+  //! The same bound, valid anywhere in the joint box lo <= q <= hi (per joint; a continuous
+  //! joint's interval may run past +-pi). It may not be lower anywhere in the box than at any of
+  //! its points. Clearance balls take it over a box around their centre. Default: the global one.
+  [[nodiscard]] virtual double box_displacement_bound(const JointVector& lo, const JointVector& hi,
+                                                      int joint) const noexcept;
   //! Fewest samples the straight edge from -> to needs by the model's own rule (the dual crane's:
   //! girder anchors move at most its anchor step between samples); edge checks take at least this
   //! many. Default: 1.

@@ -67,6 +67,9 @@ class MobileCrane final : public MachineModel {
   //! at most the longer end's boom.
   [[nodiscard]] double edge_displacement_bound(const JointVector& from, const JointVector& to,
                                                int joint) const noexcept override;
+  //! In a box: its longest boom at its lowest elevation, the same way.
+  [[nodiscard]] double box_displacement_bound(const JointVector& lo, const JointVector& hi,
+                                              int joint) const noexcept override;
 
   [[nodiscard]] const MobileCraneGeometry& geometry() const noexcept { return geometry_; }
   [[nodiscard]] const LiftTask& task() const noexcept { return task_; }
@@ -81,6 +84,10 @@ class MobileCrane final : public MachineModel {
   std::optional<LuffRangeTable> luff_table_;
   LiftTask task_;
   std::optional<LoadChartRule> rule_;
+  //! Per-joint displacement bound with the boom at most boom_m long and at least
+  //! lowest_elevation high. [m/rad | m/m]
+  [[nodiscard]] double reach_bound(double boom_m, double lowest_elevation, int joint) const noexcept;
+
   double superstructure_reach_m_ = 0.0;  //!< farthest superstructure corner from the swing axis [m]
   //! Farthest body point beyond the boom tip's radius: the load's corners or the boom box's. [m]
   double boom_margin_m_ = 0.0;
