@@ -644,6 +644,9 @@ const std::string& CollisionWorld::dynamic_name(int index) const {
 
 void CollisionWorld::set_dynamic_pose(int index, const Eigen::Isometry3d& world_from_obstacle) noexcept {
   auto& dynamic = impl_->dynamics[static_cast<std::size_t>(index)];
+  // Posed where it stands (a parked truck, a crane before or after its slew, the copies the
+  // prediction puts past its motion's end): the results remembered and the balls still hold.
+  if (dynamic.pose.matrix() == world_from_obstacle.matrix()) return;
   dynamic.pose = world_from_obstacle;
   for (auto& part : dynamic.parts) {
     part.object->setTransform(world_from_obstacle * part.obstacle_from_part);
