@@ -2,7 +2,7 @@
 // CollisionWorld certifies edge samples collision free from clearance balls (certify_edges). Here
 // that gives, edge for edge, the verdict of a world that certifies nothing and reuses nothing, on
 // every machine kind the balls apply to, with the dynamic obstacles moved between calls; and the
-// balls go when an obstacle moves.
+// balls go when an obstacle moves and stay when it is posed where it stands.
 #include <catch2/catch.hpp>
 
 #include <string>
@@ -162,7 +162,7 @@ TEST_CASE("certified edge checks give the full check's verdict on the excavator 
   compare_with_reference("excavator-truck.yaml", 3000, 20261205, 0.15, {7000, 1100, 60, 350});
 }
 
-TEST_CASE("a clearance ball goes when a dynamic obstacle moves", "[unit]") {
+TEST_CASE("a clearance ball goes when a dynamic obstacle moves and stays when it is posed where it stands", "[unit]") {
   io::LoadedScenario loaded = io::load_and_build(mgc::test::source_path("scenarios/thesis-steel-frame.yaml"));
   CollisionWorld& world = *loaded.world;
   const MachineModel& model = *loaded.model;
@@ -175,8 +175,20 @@ TEST_CASE("a clearance ball goes when a dynamic obstacle moves", "[unit]") {
   to[0] = wrap_angle(to[0] + 20.0 * problem.step[0]);
   REQUIRE(world.validate_edge(from, to, problem.step).valid());
   const std::uint64_t certified = world.certified_samples();
+  std::uint64_t checks = world.collision_checks();
   REQUIRE(world.validate_edge(from, to, problem.step).valid());
   REQUIRE(world.certified_samples() > certified);  // the second pass went through the balls
+  REQUIRE(world.collision_checks() == checks);      // all of it
+
+  // Posed again exactly where it stands, crane 2 has not moved: the balls stay.
+  world.set_dynamic_pose(0, Eigen::Isometry3d(Eigen::Translation3d(-500.0, 0.0, 0.0)));
+  checks = world.collision_checks();
+  REQUIRE(world.validate_edge(from, to, problem.step).valid());
+  CHECK(world.collision_checks() == checks);
+  // A millimetre is a move: they go, and the first sample is checked in full again.
+  world.set_dynamic_pose(0, Eigen::Isometry3d(Eigen::Translation3d(-500.001, 0.0, 0.0)));
+  REQUIRE(world.validate_edge(from, to, problem.step).valid());
+  CHECK(world.collision_checks() > checks);
 
   // Crane 2 moved until it stands in the edge's midpoint: the balls found without it must go.
   const JointVector middle = model.interpolate(from, to, 0.5);

@@ -80,7 +80,8 @@ class CollisionWorld {
   //! Builds the broad phase. Throws std::logic_error if called twice.
   void finalize();
 
-  //! Moves a dynamic obstacle. RT-safe.
+  //! Moves a dynamic obstacle. RT-safe. A pose equal to its present one (bit for bit) changes
+  //! nothing: remembered dynamic results and clearance balls stay.
   void set_dynamic_pose(int index, const Eigen::Isometry3d& world_from_obstacle) noexcept;
   [[nodiscard]] const Eigen::Isometry3d& dynamic_pose(int index) const noexcept;
 
