@@ -3,6 +3,8 @@
 // between them is blocked, so each one needs planning.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/random.hpp"
 #include "test_support.hpp"
@@ -200,7 +202,8 @@ TEST_CASE("displacement bounds hold for every body corner of every model", "[ora
       }
       if (n % 2 == 0) to = from;  // half the edges are single points: the bound at q itself
       const JointVector q = model.interpolate(from, to, random.uniform());
-      const int joint = n % model.dof();
+      // Drawn, not n % dof: every joint meets both kinds of q below.
+      const int joint = std::min(static_cast<int>(random.uniform() * model.dof()), model.dof() - 1);
       // Every fourth q is instead a point of the box spanned by from and to, under the box bound.
       const bool in_box = n % 4 == 1;
       const JointVector lo = from.cwiseMin(to);
