@@ -195,7 +195,6 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     trial.at_s += m.dt_s;
     trial.states.push_back({trial.at_s, trial.at});
     if (c == 0 && m.reaches && trial.came_from.size() > 1) trial.came_from.pop_back();
-    trial.clear = !covered_at_rest(trial.at, trial.at_s);
     return true;
   };
   const auto escape = [&](RepairEvent* event) {
@@ -212,10 +211,18 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     int chosen = -1;
     for (bool any = true; any && chosen < 0;) {
       any = false;
+      // Every move of the turn first, then whether each stands clear: the moves of a turn mostly
+      // end at one time and share the obstacles' present poses, which the prediction's copies
+      // would otherwise displace between them.
+      for (int c = 0; c < static_cast<int>(trials.size()); ++c) {
+        Trial& trial = trials[static_cast<std::size_t>(c)];
+        if (trial.alive) trial.alive = advance(c, trial);
+      }
       for (int c = 0; c < static_cast<int>(trials.size()); ++c) {
         Trial& trial = trials[static_cast<std::size_t>(c)];
         if (!trial.alive) continue;
-        trial.alive = advance(c, trial) && !trial.clear;
+        trial.clear = !covered_at_rest(trial.at, trial.at_s);
+        trial.alive = !trial.clear;
         any = any || trial.alive;
         if (trial.clear && (chosen < 0 || trial.at_s < trials[static_cast<std::size_t>(chosen)].at_s)) chosen = c;
       }
