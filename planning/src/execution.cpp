@@ -152,7 +152,10 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     m.to = m.reaches ? target : model.interpolate(from, target, m.dt_s / needed_s);
     return m;
   };
-  const auto inside_prediction = [&] { return covered_at_rest(q, t_s); };
+  // Up to a tick past the horizon: the next move is checked a tick from now against the copies
+  // then, the farthest of which reaches a tick further than it does now. A machine that copy will
+  // reach cannot move at all, whatever path a repair gives it.
+  const auto inside_prediction = [&] { return covered_at_rest(q, t_s) || covered_at_rest(q, t_s + settings.tick_s); };
   // Ways out of the prediction: back along the executed motion, or one joint alone at its speed
   // limit either way (2n + 1 candidates). They are simulated before the machine takes one, a move
   // of each in turn, every move checked against the obstacles' scripted poses at its end; a joint
