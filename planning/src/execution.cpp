@@ -95,10 +95,22 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     return false;
   };
   // Whether the obstacles, moving on as predicted, reach a machine standing at `state` within the
-  // horizon from t0_s: at a copy, or between two.
+  // horizon from t0_s, at a copy or between two, or a tick past it: the next move is checked
+  // against the copies a tick later, and a machine the farthest of them then reaches cannot start
+  // on any path.
   const auto covered_at_rest = [&](const JointVector& state, double t0_s) {
     pose_obstacles(t0_s, horizon_s);
-    return world.hits_dynamic(state) || reached_between_copies(state, t0_s, predicted, nullptr);
+    if (world.hits_dynamic(state) || reached_between_copies(state, t0_s, predicted, nullptr)) return true;
+    const double beyond_s = t0_s + horizon_s + settings.tick_s;
+    bool moved = false;
+    for (int i = predicted; predicted > 0 && i < world.num_dynamic(); i += copies) {
+      const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
+      if (obstacle.moves_between(t0_s + horizon_s, beyond_s)) {
+        world.set_dynamic_pose(i, obstacle.pose_at(beyond_s));
+        moved = true;
+      }
+    }
+    return moved && world.hits_dynamic(state);
   };
 
   ExecutionResult result;
@@ -152,10 +164,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     m.to = m.reaches ? target : model.interpolate(from, target, m.dt_s / needed_s);
     return m;
   };
-  // Up to a tick past the horizon: the next move is checked a tick from now against the copies
-  // then, the farthest of which reaches a tick further than it does now. A machine that copy will
-  // reach cannot move at all, whatever path a repair gives it.
-  const auto inside_prediction = [&] { return covered_at_rest(q, t_s) || covered_at_rest(q, t_s + settings.tick_s); };
+  const auto inside_prediction = [&] { return covered_at_rest(q, t_s); };
   // Ways out of the prediction: back along the executed motion, or one joint alone at its speed
   // limit either way (2n + 1 candidates). They are simulated before the machine takes one, a move
   // of each in turn, every move checked against the obstacles' scripted poses at its end; a joint
