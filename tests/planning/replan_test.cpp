@@ -54,12 +54,21 @@ ReplanSettings replan_settings(const Scenario& s) {
   return r;
 }
 
-//! Predicted poses 1 s apart over horizon_s, as mgc-bench's replan suite has them.
-ExecutionSettings execution_settings(double horizon_s = kHorizonS, double start_time_s = 0.0) {
+//! Predicted poses 1 s apart over horizon_s, as mgc-bench's replan suite has them; max_repairs 0:
+//! ExecutionSettings' own cap (mgc-bench's is 10).
+ExecutionSettings execution_settings(double horizon_s = kHorizonS, double start_time_s = 0.0, int max_repairs = 0) {
   ExecutionSettings e;
   e.prediction_horizon_s = horizon_s;
   e.start_time_s = start_time_s;
+  if (max_repairs > 0) e.max_repairs = max_repairs;
   return e;
+}
+
+//! One drrt-con-con-mod lift of the site's problem.
+ExecutionResult con_con_mod_lift(Site& site, const ExecutionSettings& settings) {
+  auto replanner = make_replanner("drrt-con-con-mod");
+  return execute_with_replanning(site.loaded.scenario, site.problem, *replanner, replan_settings(site.loaded.scenario),
+                                 settings);
 }
 
 //! An independent world: no predicted copies, half the planner's dilation (what validate_edge
@@ -215,9 +224,7 @@ TEST_CASE("a machine inside the prediction takes the quickest way out, here one 
   // (125 states in contact before the machine could choose another way). Slewing away gets out.
   Checker checker("thesis-steel-frame.yaml");
   Site site = load_site("thesis-steel-frame.yaml", 34);
-  auto replanner = make_replanner("drrt-con-con-mod");
-  const ExecutionResult r = execute_with_replanning(site.loaded.scenario, site.problem, *replanner,
-                                                    replan_settings(site.loaded.scenario), execution_settings());
+  const ExecutionResult r = con_con_mod_lift(site, execution_settings());
   REQUIRE(r.first_plan == PlannerStatus::Solved);
   CHECK(r.outcome == ExecutionResult::Outcome::Arrived);
   CHECK(r.contact_states == 0);
@@ -261,11 +268,7 @@ TEST_CASE("a machine the farthest copy reaches a tick from now moves out before 
   // past the horizon, the stop is inside the prediction: the machine first moves out.
   Checker checker("thesis-steel-frame.yaml");
   Site site = load_site("thesis-steel-frame.yaml", 34, 6);
-  ExecutionSettings settings = execution_settings(6.0, 0.0);
-  settings.max_repairs = 10;
-  auto replanner = make_replanner("drrt-con-con-mod");
-  const ExecutionResult r = execute_with_replanning(site.loaded.scenario, site.problem, *replanner,
-                                                    replan_settings(site.loaded.scenario), settings);
+  const ExecutionResult r = con_con_mod_lift(site, execution_settings(6.0, 0.0, 10));
   CHECK(r.outcome == ExecutionResult::Outcome::Arrived);
   CHECK(r.contact_states == 0);
   checker.executed(r);
@@ -283,11 +286,8 @@ TEST_CASE("a machine holding after a failed repair moves out of the prediction w
   // prediction a tick past the horizon: it now moves out before that repair.)
   Checker checker("thesis-steel-frame-tower.yaml");
   Site site = load_site("thesis-steel-frame-tower.yaml", 50, 6);
-  ExecutionSettings settings = execution_settings(6.0, 15.0);
-  settings.max_repairs = 10;
-  auto replanner = make_replanner("drrt-con-con-mod");
-  const ExecutionResult r = execute_with_replanning(site.loaded.scenario, site.problem, *replanner,
-                                                    replan_settings(site.loaded.scenario), settings);
+  const ExecutionSettings settings = execution_settings(6.0, 15.0, 10);
+  const ExecutionResult r = con_con_mod_lift(site, settings);
   REQUIRE(r.first_plan == PlannerStatus::Solved);
   REQUIRE(!r.repairs.empty());
   const RepairEvent& failed = r.repairs.front();
@@ -322,9 +322,7 @@ TEST_CASE("a machine does not stop where the jib comes between two of its predic
   // tick at a time, and no move ends where the jib would reach it before its next copy.
   Checker checker("thesis-steel-frame-tower.yaml");
   Site site = load_site("thesis-steel-frame-tower.yaml", 16, 6);
-  auto replanner = make_replanner("drrt-con-con-mod");
-  const ExecutionResult r = execute_with_replanning(site.loaded.scenario, site.problem, *replanner,
-                                                    replan_settings(site.loaded.scenario), execution_settings(6.0, 30.0));
+  const ExecutionResult r = con_con_mod_lift(site, execution_settings(6.0, 30.0));
   REQUIRE(r.first_plan == PlannerStatus::Solved);
   CHECK(r.outcome == ExecutionResult::Outcome::Arrived);
   CHECK(r.contact_states == 0);
