@@ -418,7 +418,6 @@ struct CollisionWorld::Impl {
 
   std::vector<Body> bodies;
   std::vector<unsigned char> body_moves;  //!< per body, see CollisionWorld::body_moves
-  std::array<bool, kMaxJoints> continuous{};  //!< per joint, JointSpec::continuous
   std::vector<BodyResults> results;       //!< per body
   std::vector<PairResult> pair_results;   //!< per MachineModel::self_pairs() entry
   std::uint64_t next_stamp = 1;
@@ -571,7 +570,6 @@ CollisionWorld::CollisionWorld(const MachineModel& model, double dilation_m)
   Kinematics moved;
   model.forward_kinematics(middle, reference);
   impl_->body_moves.assign(impl_->bodies.size(), 0);
-  for (int j = 0; j < n; ++j) impl_->continuous[static_cast<std::size_t>(j)] = model.joints()[static_cast<std::size_t>(j)].continuous;
   for (int j = 0; j < n; ++j) {
     const JointSpec& spec = model.joints()[static_cast<std::size_t>(j)];
     for (const double end : {spec.continuous ? -0.5 * std::numbers::pi : spec.position_min,
@@ -788,7 +786,7 @@ bool CollisionWorld::in_ball(const JointVector& q) const noexcept {
   const auto& impl = *impl_;
   const std::size_t count = impl.balls.size();
   const int dof = model_.dof();
-  const auto& continuous = impl.continuous;
+  const auto& joints = model_.joints();
   // Newest first: a run of samples mostly stays in the ball its last full check left.
   for (std::size_t k = 1; k <= count; ++k) {
     const auto& ball = impl.balls[(impl.next_ball + count - k) % count];
@@ -797,7 +795,7 @@ bool CollisionWorld::in_ball(const JointVector& q) const noexcept {
     double travel_m = 0.0;
     for (int i = 0; i < dof && travel_m < ball.radius_m; ++i) {
       const double delta = q[i] - ball.centre[i];
-      travel_m += ball.bound[i] * std::abs(continuous[static_cast<std::size_t>(i)] ? wrap_angle(delta) : delta);
+      travel_m += ball.bound[i] * std::abs(joints[static_cast<std::size_t>(i)].continuous ? wrap_angle(delta) : delta);
     }
     if (travel_m < ball.radius_m) return true;
   }
