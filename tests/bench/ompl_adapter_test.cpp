@@ -81,3 +81,18 @@ TEST_CASE("An OMPL run repeats for a seed and differs for another") {
   CHECK(a.simplified == b.simplified);
   CHECK(a.path != c.path);
 }
+
+TEST_CASE("OMPL without simplification returns the same raw path and no simplified one") {
+  mgc::test::Fixture f(kScenario);
+  OmplOptions options;
+  options.time_limit_s = 10.0;
+  const auto full = solve_with_ompl(f.problem, OmplPlanner::RrtConnect, options, 6);
+  options.simplify = false;
+  const auto raw_only = solve_with_ompl(f.problem, OmplPlanner::RrtConnect, options, 6);
+  REQUIRE(full.solved);
+  REQUIRE(raw_only.solved);
+  CHECK(raw_only.path == full.path);
+  CHECK_FALSE(full.simplified.empty());
+  CHECK(raw_only.simplified.empty());
+  CHECK(raw_only.simplify_ms == 0.0);
+}

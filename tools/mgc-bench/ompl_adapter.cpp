@@ -364,6 +364,7 @@ OmplResult solve_with_ompl(const PlanningProblem& problem, OmplPlanner which, co
     return result;
   }
 
+  if (!options.simplify) return result;
   og::PathGeometric simplified(*solution);
   SeededSimplifier simplifier(si, stream_seed(seed, 2000));
   const auto t1 = std::chrono::steady_clock::now();

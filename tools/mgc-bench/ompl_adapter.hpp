@@ -34,6 +34,8 @@ struct OmplOptions {
   //! Straight-line extension length, in steps (the step metric); 0: the problem's extend_steps,
   //! the length our bidirectional planners extend by.
   double range_steps = 0.0;
+  //! Run the PathSimplifier after solve(); off where only the planning time is wanted.
+  bool simplify = true;
 };
 
 struct OmplResult {
@@ -46,7 +48,7 @@ struct OmplResult {
   //! The world's body_checks() then.
   std::uint64_t solve_body_checks = 0;
   std::vector<planning::JointVector> path;        //!< raw: exact start to exact goal
-  std::vector<planning::JointVector> simplified;  //!< after OMPL's PathSimplifier
+  std::vector<planning::JointVector> simplified;  //!< after OMPL's PathSimplifier; empty when not asked for
   double simplify_ms = 0.0;     //!< PathSimplifier wall clock [ms]
   std::string error;            //!< not empty: the adapter found an inconsistency (reported loudly)
 };
