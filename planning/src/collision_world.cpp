@@ -461,6 +461,7 @@ struct CollisionWorld::Impl {
 
   //! Forgets every remembered result (the obstacle set changed).
   void forget() noexcept {
+    posed = false;
     for (auto& r : results) r = BodyResults{};
     for (auto& p : pair_results) p = PairResult{};
     forget_balls();
@@ -479,6 +480,9 @@ struct CollisionWorld::Impl {
   fcl::DynamicAABBTreeCollisionManagerd manager;
   bool finalized = false;
   Kinematics kinematics;
+  //! The configuration the bodies were last posed at: posing it again changes nothing.
+  JointVector posed_q;
+  bool posed = false;
 
   fcl::CollisionRequestd collision_request;
   fcl::CollisionResultd collision_result;
@@ -659,6 +663,12 @@ const Eigen::Isometry3d& CollisionWorld::dynamic_pose(int index) const noexcept 
 }
 
 void CollisionWorld::pose_machine(const JointVector& q) noexcept {
+  // The way-out search and the checks between the prediction's copies ask about one standing
+  // machine again and again while only the obstacles move.
+  if (impl_->posed && impl_->posed_q.size() == q.size() &&
+      std::memcmp(impl_->posed_q.data(), q.data(), sizeof(double) * static_cast<std::size_t>(q.size())) == 0) {
+    return;
+  }
   model_.forward_kinematics(q, impl_->kinematics);
   for (std::size_t i = 0; i < impl_->bodies.size(); ++i) {
     const double m = impl_->body_moves.empty() || impl_->body_moves[i] != 0 ? dilation_m_ : fixed_dilation_m_;
@@ -712,6 +722,8 @@ void CollisionWorld::pose_machine(const JointVector& q) noexcept {
     }
     results.current = slot;
   }
+  impl_->posed_q = q;
+  impl_->posed = true;
 }
 
 bool CollisionWorld::is_free(const JointVector& q, Contact* contact) noexcept {
@@ -928,6 +940,7 @@ std::uint64_t CollisionWorld::body_checks() const noexcept { return impl_->body_
 void CollisionWorld::set_fixed_body_dilation(double dilation_m) {
   if (!(dilation_m >= 0.0) || !std::isfinite(dilation_m)) throw std::invalid_argument("fixed body dilation must be >= 0");
   fixed_dilation_m_ = dilation_m;
+  impl_->posed = false;
   impl_->forget_balls();
 }
 
