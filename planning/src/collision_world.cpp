@@ -381,6 +381,10 @@ struct CollisionWorld::Impl {
     std::vector<DynamicPart> parts;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     fcl::AABBd bounds;  //!< around every part's world AABB: a body clear of it is clear of them all
+    double reach_m = 0.0;  //!< CollisionWorld::dynamic_reach_m
+    //! The first obstacle added before this one with the very same parts (a copy of the same
+    //! obstacle for another predicted time), -1 if none.
+    int twin = -1;
 
     void bound() noexcept {
       bounds = parts.front().object->getAABB();
@@ -477,6 +481,7 @@ struct CollisionWorld::Impl {
   bool pair_hit(std::size_t p, const SelfPair& pair) noexcept;
   std::vector<std::unique_ptr<PosedObject>> statics;
   std::vector<Dynamic> dynamics;
+  std::vector<std::vector<ShapePart>> dynamic_shapes;  //!< each dynamic obstacle's parts as added, to find twins
   fcl::DynamicAABBTreeCollisionManagerd manager;
   bool finalized = false;
   Kinematics kinematics;
@@ -507,6 +512,10 @@ int CollisionWorld::Impl::dynamic_hit(std::size_t b) noexcept {
   CollisionObject* body = bodies[b].object.get();
   for (std::size_t d = 0; d < dynamics.size() && hit < 0; ++d) {
     if (!body->getAABB().overlap(dynamics[d].bounds)) continue;
+    // Standing exactly where its twin stands, checked before it and missed, it misses too (the
+    // prediction's copies, all posed at the present time while the machine moves out of it).
+    const int twin = dynamics[d].twin;
+    if (twin >= 0 && dynamics[d].pose.matrix() == dynamics[static_cast<std::size_t>(twin)].pose.matrix()) continue;
     for (auto& part : dynamics[d].parts) {
       if (!body->getAABB().overlap(part.object->getAABB())) continue;
       if (intersects(body, part.object.get(), collision_request, collision_result)) {
@@ -621,6 +630,26 @@ int CollisionWorld::add_dynamic(DynamicObstacle obstacle) {
     dynamic.parts.push_back(std::move(p));
   }
   dynamic.bound();
+  // The corners of each part's own bounding box, in the obstacle's frame.
+  for (const Impl::DynamicPart& p : dynamic.parts) {
+    const fcl::AABBd& local = p.object->collisionGeometry()->aabb_local;
+    for (int corner = 0; corner < 8; ++corner) {
+      const Eigen::Vector3d c((corner & 1) != 0 ? local.max_.x() : local.min_.x(), (corner & 2) != 0 ? local.max_.y() : local.min_.y(),
+                              (corner & 4) != 0 ? local.max_.z() : local.min_.z());
+      dynamic.reach_m = std::max(dynamic.reach_m, (p.obstacle_from_part * c).head<2>().norm());
+    }
+  }
+  const auto same_part = [](const ShapePart& a, const ShapePart& b) {
+    return a.kind == b.kind && a.size_m == b.size_m && a.vertices_m == b.vertices_m && a.triangles == b.triangles &&
+           a.pose.matrix() == b.pose.matrix();
+  };
+  for (std::size_t d = 0; d < impl_->dynamic_shapes.size() && dynamic.twin < 0; ++d) {
+    const std::vector<ShapePart>& other = impl_->dynamic_shapes[d];
+    if (other.size() == obstacle.parts.size() && std::equal(other.begin(), other.end(), obstacle.parts.begin(), same_part)) {
+      dynamic.twin = static_cast<int>(d);
+    }
+  }
+  impl_->dynamic_shapes.push_back(obstacle.parts);
   impl_->dynamics.push_back(std::move(dynamic));
   impl_->forget();
   return index;
@@ -660,6 +689,26 @@ void CollisionWorld::set_dynamic_pose(int index, const Eigen::Isometry3d& world_
 
 const Eigen::Isometry3d& CollisionWorld::dynamic_pose(int index) const noexcept {
   return impl_->dynamics[static_cast<std::size_t>(index)].pose;
+}
+
+double CollisionWorld::dynamic_reach_m(int index) const noexcept { return impl_->dynamics[static_cast<std::size_t>(index)].reach_m; }
+
+bool CollisionWorld::dynamic_may_be_within(const JointVector& q, int index, double distance_m) noexcept {
+  pose_machine(q);
+  const auto& impl = *impl_;
+  const Impl::Dynamic& dynamic = impl.dynamics[static_cast<std::size_t>(index)];
+  const double limit_sq = distance_m * distance_m;
+  for (const auto& body : impl.bodies) {
+    const CollisionObject* object = body.object.get();
+    // A body this far from the box round all the parts is at least as far from each.
+    if (aabb_distance_sq(object->getAABB(), dynamic.bounds) > limit_sq) continue;
+    const OrientedBox box = outer_box(object);
+    for (const auto& part : dynamic.parts) {
+      if (aabb_distance_sq(object->getAABB(), part.object->getAABB()) > limit_sq) continue;
+      if (box_gap_m(box, outer_box(part.object.get())) <= distance_m) return true;
+    }
+  }
+  return false;
 }
 
 void CollisionWorld::pose_machine(const JointVector& q) noexcept {

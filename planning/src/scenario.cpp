@@ -2,6 +2,7 @@
 #include "mgc/planning/scenario.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -43,6 +44,21 @@ bool DynamicObstacleSpec::moves_between(double from_s, double to_s) const noexce
     if (next->t_s >= to_s) break;
   }
   return false;
+}
+
+double DynamicObstacleSpec::max_travel_m(double from_s, double to_s, double reach_m) const noexcept {
+  double travel_m = 0.0;
+  for (std::size_t k = 0; k + 1 < motion.size(); ++k) {
+    const Keyframe& a = motion[k];
+    const Keyframe& b = motion[k + 1];
+    // The part of [from_s, to_s] inside this stretch, as fractions of it.
+    const double lo_s = std::max(from_s, a.t_s);
+    const double hi_s = std::min(to_s, b.t_s);
+    if (!(hi_s > lo_s)) continue;
+    const double fraction = (hi_s - lo_s) / (b.t_s - a.t_s);
+    travel_m += fraction * ((b.position_m - a.position_m).norm() + std::abs(b.yaw_rad - a.yaw_rad) * reach_m);
+  }
+  return travel_m;
 }
 
 std::unique_ptr<MachineModel> build_model(const Scenario& scenario) {

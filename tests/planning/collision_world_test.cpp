@@ -10,6 +10,7 @@
 #include "mgc/planning/collision_world.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/mobile_crane.hpp"
+#include "mgc/planning/planners/node_tree.hpp"
 #include "mgc/planning/random.hpp"
 #include "test_support.hpp"
 
@@ -312,4 +313,100 @@ TEST_CASE("wrap_angle returns the fmod formula's value bit for bit", "[unit]") {
   }
   CHECK(std::isnan(wrap_angle(std::numeric_limits<double>::quiet_NaN())));
   CHECK(std::isnan(wrap_angle(std::numeric_limits<double>::infinity())));
+}
+
+namespace {
+
+DynamicObstacle truck_with_boom() {
+  DynamicObstacle truck;
+  truck.name = "truck";
+  ShapePart body;
+  body.kind = ShapeKind::Box;
+  body.size_m = {8, 2.5, 3};
+  body.pose = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 1.5));
+  truck.parts.push_back(body);
+  ShapePart boom;
+  boom.kind = ShapeKind::Box;
+  boom.size_m = {2, 2, 2};
+  boom.pose = Eigen::Isometry3d(Eigen::Translation3d(18, 0, 5));
+  truck.parts.push_back(boom);
+  return truck;
+}
+
+}  // namespace
+
+TEST_CASE("a dynamic obstacle's reach is its farthest corner from its vertical axis", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.15);
+  const int id = world.add_dynamic(truck_with_boom());
+  world.finalize();
+  CHECK(world.dynamic_reach_m(id) == Approx(std::hypot(19.0, 1.0)));
+  // Posing it elsewhere changes nothing: the reach is about its own axis.
+  world.set_dynamic_pose(id, Eigen::Isometry3d(Eigen::Translation3d(40, 10, 0)));
+  CHECK(world.dynamic_reach_m(id) == Approx(std::hypot(19.0, 1.0)));
+}
+
+TEST_CASE("a dynamic obstacle said to be farther than a distance does not reach the machine when moved by less", "[oracle]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.15);
+  const int id = world.add_dynamic(truck_with_boom());
+  world.finalize();
+  Random random(5);
+  int far = 0;
+  int near = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const JointVector q = uniform_sample(*crane, random);
+    const Eigen::Vector3d at(random.uniform(-40, 40), random.uniform(-40, 40), 0.0);
+    const double yaw = random.uniform(-3.2, 3.2);
+    const Eigen::Isometry3d pose = Eigen::Translation3d(at) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+    world.set_dynamic_pose(id, pose);
+    const double distance_m = random.uniform(0.0, 6.0);
+    if (world.dynamic_may_be_within(q, id, distance_m)) {
+      ++near;
+      continue;
+    }
+    ++far;
+    CAPTURE(trial, distance_m);
+    REQUIRE_FALSE(world.hits_dynamic(q));
+    // Any motion whose points travel less than the distance: a shift, and a turn about its axis
+    // by the angle that moves its farthest corner that far.
+    const Eigen::Vector3d direction = Eigen::Vector3d(random.uniform(-1, 1), random.uniform(-1, 1), random.uniform(-1, 1)).normalized();
+    world.set_dynamic_pose(id, Eigen::Translation3d(0.999 * distance_m * direction) * pose);
+    REQUIRE_FALSE(world.hits_dynamic(q));
+    const double turn = 0.999 * distance_m / world.dynamic_reach_m(id);
+    world.set_dynamic_pose(id, pose * Eigen::AngleAxisd(random.uniform() < 0.5 ? turn : -turn, Eigen::Vector3d::UnitZ()));
+    REQUIRE_FALSE(world.hits_dynamic(q));
+  }
+  // Both answers were exercised.
+  CHECK(far > 300);
+  CHECK(near > 300);
+}
+
+TEST_CASE("copies of one obstacle at one pose report the first, and a copy elsewhere is still checked", "[unit]") {
+  auto crane = make_crane();
+  CollisionWorld world(*crane, 0.15);
+  const int first = world.add_dynamic(truck_with_boom());
+  const int second = world.add_dynamic(truck_with_boom());
+  DynamicObstacle other = truck_with_boom();
+  other.parts[1].size_m = {2, 2, 2.5};
+  const int third = world.add_dynamic(other);
+  world.finalize();
+  const double elevation = std::acos(15.0 / 20.0) / kDeg;
+  const JointVector q = q4(0, elevation, 20, 12);  // load 2.23 m up at radius 15, over the truck at x = 15
+  const Eigen::Isometry3d on(Eigen::Translation3d(15, 0, 0));
+  const Eigen::Isometry3d away(Eigen::Translation3d(-60, 0, 0));
+  world.set_dynamic_pose(third, away);
+  world.set_dynamic_pose(first, on);
+  world.set_dynamic_pose(second, on);
+  Contact contact;
+  REQUIRE(world.hits_dynamic(q, &contact));
+  CHECK(contact.other == first);
+  world.set_dynamic_pose(first, away);
+  REQUIRE(world.hits_dynamic(q, &contact));
+  CHECK(contact.other == second);
+  world.set_dynamic_pose(second, away);
+  CHECK_FALSE(world.hits_dynamic(q));
+  world.set_dynamic_pose(third, on);
+  REQUIRE(world.hits_dynamic(q, &contact));
+  CHECK(contact.other == third);
 }

@@ -43,6 +43,8 @@ TEST_CASE("collision queries and dynamic moves do not allocate after finalize", 
         (void)world.validate(q);
         (void)world.validate_edge(q, configurations[static_cast<std::size_t>(count - 1 - i)], steps);
         (void)world.clearance(q);
+        for (int d = 0; d < world.num_dynamic(); ++d) (void)world.dynamic_may_be_within(q, d, 2.0);
+        (void)world.hits_dynamic(q);
       }
       return collisions;
     };

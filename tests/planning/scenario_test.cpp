@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
 
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/random.hpp"
@@ -68,6 +69,40 @@ TEST_CASE("a dynamic obstacle moves between two times only where its keys differ
       CAPTURE(from_s, length_s);
       if (moved) CHECK(spec.moves_between(from_s, from_s + length_s));
     }
+  }
+}
+
+TEST_CASE("no point of a dynamic obstacle moves farther than its travel bound", "[oracle]") {
+  DynamicObstacleSpec spec;
+  const auto key = [](double t_s, const Eigen::Vector3d& p_m, double yaw_rad) {
+    Keyframe k;
+    k.t_s = t_s;
+    k.position_m = p_m;
+    k.yaw_rad = yaw_rad;
+    return k;
+  };
+  // Still, slews, drives and slews back at once, still again.
+  spec.motion = {key(0, {0, 0, 0}, 0), key(10, {0, 0, 0}, 0), key(20, {0, 0, 0}, 1.5), key(30, {6, -3, 0}, -0.5),
+                 key(40, {6, -3, 0}, -0.5)};
+  constexpr double kReach_m = 25.0;
+  // The exact figures where one key stretch holds the interval: a slew's arc at the reach.
+  CHECK(spec.max_travel_m(0, 10, kReach_m) == 0.0);
+  CHECK(spec.max_travel_m(10, 20, kReach_m) == Approx(1.5 * kReach_m));
+  CHECK(spec.max_travel_m(12, 14, kReach_m) == Approx(0.3 * kReach_m));
+  CHECK(spec.max_travel_m(20, 30, kReach_m) == Approx(std::sqrt(45.0) + 2.0 * kReach_m));
+  CHECK(spec.max_travel_m(-5, 100, kReach_m) == Approx(1.5 * kReach_m + std::sqrt(45.0) + 2.0 * kReach_m));
+  CHECK(spec.max_travel_m(40, 50, kReach_m) == 0.0);
+  // Every point within the reach, between any two times, stays within the bound.
+  Random random(11);
+  for (int trial = 0; trial < 20000; ++trial) {
+    const double a_s = random.uniform(-2.0, 42.0);
+    const double b_s = random.uniform(a_s, 42.0);
+    const double radius_m = random.uniform(0.0, kReach_m);
+    const double angle = random.uniform(-3.2, 3.2);
+    const Eigen::Vector3d point(radius_m * std::cos(angle), radius_m * std::sin(angle), random.uniform(-5.0, 40.0));
+    const double moved_m = (spec.pose_at(b_s) * point - spec.pose_at(a_s) * point).norm();
+    CAPTURE(a_s, b_s, radius_m, angle);
+    REQUIRE(moved_m <= spec.max_travel_m(a_s, b_s, kReach_m) + 1e-9);
   }
 }
 

@@ -84,6 +84,15 @@ class CollisionWorld {
   //! nothing: remembered dynamic results and clearance balls stay.
   void set_dynamic_pose(int index, const Eigen::Isometry3d& world_from_obstacle) noexcept;
   [[nodiscard]] const Eigen::Isometry3d& dynamic_pose(int index) const noexcept;
+  //! The farthest any point of dynamic obstacle `index` lies from the vertical axis through its
+  //! own origin, about which its yaw turns it: with DynamicObstacleSpec::max_travel_m, how far its
+  //! points can move. From the parts' bounding boxes, so never less than the true reach. [m]
+  [[nodiscard]] double dynamic_reach_m(int index) const noexcept;
+  //! False when bounding boxes alone (no narrow phase) show every body of the dilated machine at q
+  //! farther than distance_m from dynamic obstacle `index` at its present pose; true otherwise.
+  //! An obstacle whose points all move less than distance_m cannot reach a machine standing at q
+  //! where this is false. RT-safe after finalize().
+  [[nodiscard]] bool dynamic_may_be_within(const JointVector& q, int index, double distance_m) noexcept;
 
   //! Collision only. RT-safe after finalize().
   [[nodiscard]] bool is_free(const JointVector& q, Contact* contact = nullptr) noexcept;

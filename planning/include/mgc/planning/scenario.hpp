@@ -78,6 +78,10 @@ struct DynamicObstacleSpec {
   [[nodiscard]] Eigen::Isometry3d pose_at(double t_s) const noexcept;
   //! Whether the pose changes anywhere between from_s and to_s (from_s <= to_s).
   [[nodiscard]] bool moves_between(double from_s, double to_s) const noexcept;
+  //! An upper bound on how far any point within reach_m of the obstacle's vertical axis moves
+  //! between from_s and to_s (from_s <= to_s): per stretch between keys, the origin's travel
+  //! plus the yaw turned times reach_m. [m]
+  [[nodiscard]] double max_travel_m(double from_s, double to_s, double reach_m) const noexcept;
 };
 
 //! Planner parameters as the thesis names them (Table 4.1), in our units.
