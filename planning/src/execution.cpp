@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <vector>
 
 namespace mgc::planning {
 namespace {
@@ -44,12 +46,21 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
                          ? 1
                          : std::max(1, world.num_dynamic() / static_cast<int>(scenario.dynamic_obstacles.size()));
   const int predicted = copies - 1;
+  // Each copy where its obstacle is at scenario time t_s. The searches below pose the copies at
+  // the same few times again and again (a candidate way out after another, a shift then back):
+  // a copy already posed for that time (bit for bit) is left as it stands.
+  std::vector<double> posed_for_s(static_cast<std::size_t>(world.num_dynamic()), std::numeric_limits<double>::quiet_NaN());
+  const auto pose_copy = [&](int i, double t_s) {
+    double& posed_s = posed_for_s[static_cast<std::size_t>(i)];
+    if (posed_s == t_s) return;
+    world.set_dynamic_pose(i, scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)].pose_at(t_s));
+    posed_s = t_s;
+  };
   // Copy k of each obstacle stands where the obstacle will be k / P of the horizon from now.
   const auto pose_obstacles = [&](double t_s, double horizon_s) {
     for (int i = 0; i < world.num_dynamic(); ++i) {
       const int k = i % copies;
-      const double ahead_s = predicted > 0 ? horizon_s * k / predicted : 0.0;
-      world.set_dynamic_pose(i, scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)].pose_at(t_s + ahead_s));
+      pose_copy(i, t_s + (predicted > 0 ? horizon_s * k / predicted : 0.0));
     }
   };
   const double horizon_s = settings.prediction_horizon_s;
@@ -80,15 +91,29 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
   // metres between two copies 1 s apart, and a machine stopped in such a gap is run into before
   // the next copy comes. So the copies of an obstacle that moves in its gap are shifted a tick at a
   // time through it. The copies must stand at t0_s + k spacing (pose_obstacles(t0_s, horizon_s)).
+  // A copy whose points all move less over its gap than it stands from the machine cannot reach
+  // it there: it is neither shifted nor, standing still, hit. The answer is the one shifting every
+  // copy gives, at a fraction of the poses.
+  std::vector<unsigned char> sweeps(static_cast<std::size_t>(world.num_dynamic()), 0);
   const auto reached_between_copies = [&](const JointVector& state, double t0_s, int gaps, Contact* contact) {
     if (predicted == 0 || !any_moves(t0_s, t0_s + gaps * spacing_s)) return false;
+    bool any_sweeps = false;
+    for (int i = 0; i < world.num_dynamic(); ++i) {
+      const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
+      const double from_s = t0_s + spacing_s * (i % copies);
+      // The copy stands at pose_obstacles' time for it, which rounding may put a hair from from_s:
+      // the travel is bounded over the gap widened by a tick each side.
+      const bool sweeps_here =
+          i % copies < gaps && obstacle.moves_between(from_s, from_s + spacing_s) &&
+          world.dynamic_may_be_within(
+              state, i, obstacle.max_travel_m(from_s - settings.tick_s, from_s + spacing_s + settings.tick_s, world.dynamic_reach_m(i)));
+      sweeps[static_cast<std::size_t>(i)] = sweeps_here ? 1 : 0;
+      any_sweeps = any_sweeps || sweeps_here;
+    }
+    if (!any_sweeps) return false;
     for (const double shift_s : shifts_s) {
       for (int i = 0; i < world.num_dynamic(); ++i) {
-        const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
-        const double ahead_s = spacing_s * (i % copies);
-        if (i % copies < gaps && obstacle.moves_between(t0_s + ahead_s, t0_s + ahead_s + spacing_s)) {
-          world.set_dynamic_pose(i, obstacle.pose_at(t0_s + ahead_s + shift_s));
-        }
+        if (sweeps[static_cast<std::size_t>(i)] != 0) pose_copy(i, t0_s + spacing_s * (i % copies) + shift_s);
       }
       if (world.hits_dynamic(state, contact)) return true;
     }
@@ -106,7 +131,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     for (int i = predicted; predicted > 0 && i < world.num_dynamic(); i += copies) {
       const DynamicObstacleSpec& obstacle = scenario.dynamic_obstacles[static_cast<std::size_t>(i / copies)];
       if (obstacle.moves_between(t0_s + horizon_s, beyond_s)) {
-        world.set_dynamic_pose(i, obstacle.pose_at(beyond_s));
+        pose_copy(i, beyond_s);
         moved = true;
       }
     }
