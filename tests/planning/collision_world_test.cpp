@@ -36,6 +36,29 @@ JointVector q4(double swing_deg, double elevation_deg, double boom_m, double cab
   return q;
 }
 
+ShapePart box_part(const Eigen::Vector3d& size_m, const Eigen::Vector3d& centre_m) {
+  ShapePart part;
+  part.kind = ShapeKind::Box;
+  part.size_m = size_m;
+  part.pose = Eigen::Isometry3d(Eigen::Translation3d(centre_m));
+  return part;
+}
+
+//! An 8 x 2.5 x 3 m truck on the ground at its origin.
+DynamicObstacle make_truck() {
+  DynamicObstacle truck;
+  truck.name = "truck";
+  truck.parts.push_back(box_part({8, 2.5, 3}, {0, 0, 1.5}));
+  return truck;
+}
+
+//! The truck with a 2 m box held 18 m along its x axis, 5 m up.
+DynamicObstacle make_truck_with_boom() {
+  DynamicObstacle truck = make_truck();
+  truck.parts.push_back(box_part({2, 2, 2}, {18, 0, 5}));
+  return truck;
+}
+
 StaticObstacle box(const std::string& name, const Eigen::Vector3d& centre, const Eigen::Vector3d& size) {
   StaticObstacle o;
   o.name = name;
@@ -147,13 +170,7 @@ TEST_CASE("dynamic obstacles move without rebuilding the world", "[unit]") {
   auto crane = make_crane();
   CollisionWorld world(*crane, 0.15);
   world.finalize();
-  DynamicObstacle truck;
-  truck.name = "truck";
-  ShapePart body;
-  body.kind = ShapeKind::Box;
-  body.size_m = {8, 2.5, 3};
-  body.pose = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 1.5));
-  truck.parts.push_back(body);
+  const DynamicObstacle truck = make_truck();
   CHECK_THROWS_AS(world.add_dynamic(truck), std::logic_error);
 
   CollisionWorld world2(*crane, 0.15);
@@ -315,30 +332,11 @@ TEST_CASE("wrap_angle returns the fmod formula's value bit for bit", "[unit]") {
   CHECK(std::isnan(wrap_angle(std::numeric_limits<double>::infinity())));
 }
 
-namespace {
-
-DynamicObstacle truck_with_boom() {
-  DynamicObstacle truck;
-  truck.name = "truck";
-  ShapePart body;
-  body.kind = ShapeKind::Box;
-  body.size_m = {8, 2.5, 3};
-  body.pose = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 1.5));
-  truck.parts.push_back(body);
-  ShapePart boom;
-  boom.kind = ShapeKind::Box;
-  boom.size_m = {2, 2, 2};
-  boom.pose = Eigen::Isometry3d(Eigen::Translation3d(18, 0, 5));
-  truck.parts.push_back(boom);
-  return truck;
-}
-
-}  // namespace
 
 TEST_CASE("a dynamic obstacle's reach is its farthest corner from its vertical axis", "[unit]") {
   auto crane = make_crane();
   CollisionWorld world(*crane, 0.15);
-  const int id = world.add_dynamic(truck_with_boom());
+  const int id = world.add_dynamic(make_truck_with_boom());
   world.finalize();
   CHECK(world.dynamic_reach_m(id) == Approx(std::hypot(19.0, 1.0)));
   // Posing it elsewhere changes nothing: the reach is about its own axis.
@@ -349,7 +347,7 @@ TEST_CASE("a dynamic obstacle's reach is its farthest corner from its vertical a
 TEST_CASE("a dynamic obstacle said to be farther than a distance does not reach the machine when moved by less", "[oracle]") {
   auto crane = make_crane();
   CollisionWorld world(*crane, 0.15);
-  const int id = world.add_dynamic(truck_with_boom());
+  const int id = world.add_dynamic(make_truck_with_boom());
   world.finalize();
   Random random(5);
   int far = 0;
@@ -385,9 +383,9 @@ TEST_CASE("a dynamic obstacle said to be farther than a distance does not reach 
 TEST_CASE("copies of one obstacle at one pose report the first, and a copy elsewhere is still checked", "[unit]") {
   auto crane = make_crane();
   CollisionWorld world(*crane, 0.15);
-  const int first = world.add_dynamic(truck_with_boom());
-  const int second = world.add_dynamic(truck_with_boom());
-  DynamicObstacle other = truck_with_boom();
+  const int first = world.add_dynamic(make_truck_with_boom());
+  const int second = world.add_dynamic(make_truck_with_boom());
+  DynamicObstacle other = make_truck_with_boom();
   other.parts[1].size_m = {2, 2, 2.5};
   const int third = world.add_dynamic(other);
   world.finalize();
