@@ -90,6 +90,16 @@ void quality_json(tools::JsonWriter& json, const PathQuality& q) {
   json.end_object();
 }
 
+//! One query from cold (no results the world remembers from the run before are reused): reset,
+//! then steps until the planner stops. Returns the wall time of both [ms]; `status` the last.
+double solve_cold(BenchScenario& s, Planner& planner, const PlanningProblem& problem, PlannerStatus& status) {
+  s.loaded.world->forget_results();
+  const auto t0 = std::chrono::steady_clock::now();
+  status = planner.reset(problem);
+  while (status == PlannerStatus::Running) status = planner.step(100);
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 }  // namespace
 
 BenchScenario load_bench_scenario(const std::string& scenarios_dir, const std::string& file) {
@@ -189,13 +199,9 @@ RunRecord run_ours(BenchScenario& s, const std::string& planner_name, int max_it
     r.error = "unknown planner";
     return r;
   }
-  // Every query starts cold: none reuses results the world remembers from the run before.
-  s.loaded.world->forget_results();
   const std::uint64_t body_checks_before = s.loaded.world->body_checks();
-  const auto t0 = std::chrono::steady_clock::now();
-  PlannerStatus status = planner->reset(problem);
-  while (status == PlannerStatus::Running) status = planner->step(100);
-  const double time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  PlannerStatus status = PlannerStatus::NotReset;
+  const double time_ms = solve_cold(s, *planner, problem, status);
   const std::uint64_t body_checks = s.loaded.world->body_checks() - body_checks_before;
   const PlannerStats stats = planner->stats();
   RunRecord r = record_ours(s, planner_name, problem, status == PlannerStatus::Solved, time_ms, stats.iterations,
@@ -611,11 +617,8 @@ struct PairedTiming {
 double time_our_solve(BenchScenario& s, const std::string& planner_name, std::uint64_t seed) {
   const PlanningProblem problem = bench_problem(s, 0, seed);
   auto planner = make_planner(planner_name);
-  s.loaded.world->forget_results();
-  const auto t0 = std::chrono::steady_clock::now();
-  PlannerStatus status = planner->reset(problem);
-  while (status == PlannerStatus::Running) status = planner->step(100);
-  const double time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  PlannerStatus status = PlannerStatus::NotReset;
+  const double time_ms = solve_cold(s, *planner, problem, status);
   return status == PlannerStatus::Solved ? time_ms : std::numeric_limits<double>::quiet_NaN();
 }
 
