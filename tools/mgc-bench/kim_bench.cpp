@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "json_writer.hpp"
 #include "mgc/planning/dual_crane.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/planners/multi_rrt.hpp"
@@ -167,26 +168,69 @@ io::LoadedScenario load(const KimBenchOptions& options, const char* scenario, do
   return loaded;
 }
 
+//! One run as kim.csv and kim.json list it.
+struct Record {
+  const char* table;  //!< "main" (Table 2's comparison) or "table3" (the cable-tilt sweep)
+  const char* scenario;
+  const char* planner;
+  double cable_tilt_deg;
+  std::uint64_t seed;
+  Run run;
+};
+
+void write_files(const KimBenchOptions& options, const std::string& markdown, const std::vector<Record>& records) {
+  std::filesystem::create_directories(options.out_dir);
+  std::ofstream(options.out_dir + "/kim.md") << markdown;
+  std::ofstream csv(options.out_dir + "/kim.csv");
+  csv << "table,scenario,planner,cable_tilt_deg,seed,success,iterations,trees,plan_ms,smooth_ms,raw_length,length,"
+         "girder_travel_m,max_cable_tilt_deg,max_girder_tilt_deg\n";
+  for (const Record& e : records) {
+    const Run& r = e.run;
+    csv << e.table << ',' << e.scenario << ',' << e.planner << ',' << e.cable_tilt_deg << ',' << e.seed << ',' << r.success
+        << ',' << r.iterations << ',' << r.trees << ',' << r.plan_ms << ',' << r.smooth_ms << ',' << r.raw_length << ','
+        << r.length << ',' << r.girder_travel_m << ',' << r.max_cable_tilt_deg << ',' << r.max_girder_tilt_deg << '\n';
+  }
+  std::ofstream out(options.out_dir + "/kim.json");
+  tools::JsonWriter json(out);
+  json.begin_object();
+  json.key("suite").value("kim");
+  json.key("command").value(options.command);
+  json.key("markdown").value(markdown);
+  json.key("runs").begin_array();
+  for (const Record& e : records) {
+    const Run& r = e.run;
+    json.begin_object();
+    json.key("table").value(e.table);
+    json.key("scenario").value(e.scenario);
+    json.key("planner").value(e.planner);
+    json.key("cable_tilt_deg").value(e.cable_tilt_deg);
+    json.key("seed").value(e.seed);
+    json.key("success").value(r.success);
+    json.key("iterations").value(r.iterations);
+    json.key("trees").value(r.trees);
+    json.key("plan_ms").value(r.plan_ms);
+    json.key("smooth_ms").value(r.smooth_ms);
+    json.key("raw_length").value(r.raw_length);
+    json.key("length").value(r.length);
+    json.key("girder_travel_m").value(r.girder_travel_m);
+    json.key("max_cable_tilt_deg").value(r.max_cable_tilt_deg);
+    json.key("max_girder_tilt_deg").value(r.max_girder_tilt_deg);
+    json.end_object();
+  }
+  json.end_array();
+  json.end_object();
+  out << '\n';
+}
+
 }  // namespace
 
 int run_kim_suite(const KimBenchOptions& options) {
   const int runs = options.runs > 0 ? options.runs : 100;
   const char* const scenarios[] = {"kim-s1.yaml", "kim-s2.yaml", "kim-s3.yaml"};
   const char* const planners[] = {"multi-rrt", "rrt-connect", "rrt"};
-  std::ofstream csv;
-  if (!options.out_dir.empty()) {
-    std::filesystem::create_directories(options.out_dir);
-    csv.open(options.out_dir + "/kim.csv");
-    csv << "table,scenario,planner,cable_tilt_deg,seed,success,iterations,trees,plan_ms,smooth_ms,raw_length,length,"
-           "girder_travel_m,max_cable_tilt_deg,max_girder_tilt_deg\n";
-  }
+  std::vector<Record> records;
   const auto record = [&](const char* table, const char* scenario, const char* planner, double tilt, std::uint64_t seed,
-                          const Run& r) {
-    if (!csv) return;
-    csv << table << ',' << scenario << ',' << planner << ',' << tilt << ',' << seed << ',' << r.success << ',' << r.iterations
-        << ',' << r.trees << ',' << r.plan_ms << ',' << r.smooth_ms << ',' << r.raw_length << ',' << r.length << ','
-        << r.girder_travel_m << ',' << r.max_cable_tilt_deg << ',' << r.max_girder_tilt_deg << '\n';
-  };
+                          const Run& r) { records.push_back({table, scenario, planner, tilt, seed, r}); };
   char line[1024];
   std::string md = "### kim\n\nSeed 004's scenarios (scenarios/kim-s*.yaml), " + std::to_string(runs) +
                    " seeds from " + std::to_string(options.first_seed) + ", iteration budget " +
@@ -284,7 +328,7 @@ int run_kim_suite(const KimBenchOptions& options) {
                 100.0 * s3_success[0], 100.0 * s3_success[1], 100.0 * s3_success[2]);
   md += line;
   std::printf("%s", md.c_str());
-  if (!options.out_dir.empty()) std::ofstream(options.out_dir + "/kim.md") << md;
+  if (!options.out_dir.empty()) write_files(options, md, records);
   return 0;
 }
 

@@ -4,11 +4,16 @@
 // on one core; compare ratios measured in one run, not absolute times across runs.
 
 #include <CLI/CLI.hpp>
+#include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <string>
+#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -36,6 +41,20 @@ const std::vector<std::pair<std::string, PlanningSuite>>& planning_suites() {
   return all;
 }
 
+// CLI11's PositiveNumber and NonNegativeNumber name their range up to the largest double when they
+// refuse a value; these say what was expected in words.
+CLI::Validator number_check(bool zero_allowed) {
+  return CLI::Validator(
+      [zero_allowed](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        const bool number = end != text.c_str() && *end == '\0' && std::isfinite(v);
+        if (number && (zero_allowed ? v >= 0.0 : v > 0.0)) return {};
+        return std::string("expected a number ") + (zero_allowed ? "of 0 or more" : "above 0") + ", got '" + text + "'";
+      },
+      zero_allowed ? "NONNEGATIVE" : "POSITIVE");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -51,29 +70,29 @@ int main(int argc, char** argv) {
   mgc::bench::LoopBenchOptions loop;
   mgc::bench::OmplOptions ompl;
   for (const auto& [name, run] : planning_suites()) names += std::string(names.empty() ? "" : ", ") + name;
-  app.add_option("--suite", suite_name, "suite to run: " + names + ", all (the planning suites), bus (fieldbus), trajectory, safety, kim (dual crane) or loop (control cycle)");
-  app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51)")
-      ->check(CLI::PositiveNumber);
+  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), all (the seed papers' suites: thesis, zhang, langari, kim), bus (fieldbus), trajectory, safety or loop (control cycle)");
+  app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51; kim 100)")
+      ->check(number_check(false));
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
   app.add_option("--out", out_dir, "write <suite>.csv (every run), <suite>.json and <suite>.md (the tables) here");
   app.add_option("--scenarios", scenarios_dir, "folder of the shipped scenarios");
-  app.add_option("--bus-samples", bus_samples, "bus suite: SYNC round trips per latency case")->check(CLI::PositiveNumber);
-  app.add_option("--trajectory-cases", trajectory_cases, "trajectory suite: calculations per case")->check(CLI::PositiveNumber);
-  app.add_option("--loop-cycles", loop.cycles, "loop suite: timed controller cycles at 100 Hz")->check(CLI::PositiveNumber);
+  app.add_option("--bus-samples", bus_samples, "bus suite: SYNC round trips per latency case")->check(number_check(false));
+  app.add_option("--trajectory-cases", trajectory_cases, "trajectory suite: calculations per case")->check(number_check(false));
+  app.add_option("--loop-cycles", loop.cycles, "loop suite: timed controller cycles at 100 Hz")->check(number_check(false));
   app.add_option("--reaction-runs", loop.reaction_runs, "loop suite: intrusion runs per reaction case (100 Hz and 500 Hz with the tags at 10 Hz, 100 Hz with them at 100 Hz)")
-      ->check(CLI::PositiveNumber);
+      ->check(number_check(false));
   app.add_option("--loop-seconds", loop.loop_seconds, "loop suite: seconds of the live cyclic executive (0: skip)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(number_check(true));
   app.add_option("--sweep-first", loop.sweep_first_s, "loop suite: the intrusion sweep's first script offset of crane 2 [s]");
   app.add_option("--sweep-last", loop.sweep_last_s, "loop suite: the intrusion sweep's last script offset of crane 2 [s]");
   app.add_option("--sweep-step", loop.sweep_step_s, "loop suite: the intrusion sweep's offset step (0: skip the sweep) [s]")
-      ->check(CLI::NonNegativeNumber);
+      ->check(number_check(true));
   app.add_option("--sweep-limit", loop.sweep_limit_s, "loop suite: simulated seconds a sweep run may take to reach the goal")
-      ->check(CLI::PositiveNumber);
+      ->check(number_check(false));
   app.add_option("--ompl-time-limit", ompl.time_limit_s, "OMPL: seconds per query before it counts as a failure")
-      ->check(CLI::PositiveNumber);
+      ->check(number_check(false));
   app.add_option("--ompl-range", ompl.range_steps, "OMPL RRT/RRTConnect extension length in steps; 0: our extend step")
-      ->check(CLI::NonNegativeNumber);
+      ->check(number_check(true));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -81,6 +100,31 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mgc-bench: %s (see --help)\n", e.what());
     return 2;
   }
+  std::vector<std::pair<std::string, PlanningSuite>> chosen;
+  for (const auto& suite : planning_suites()) {
+    // The zhang suite holds the re-planning tables (its Table 5), so `all` does not run them twice.
+    if ((suite_name == "all" && suite.first != "replan") || suite_name == suite.first) chosen.push_back(suite);
+  }
+  const bool other_suite = suite_name == "bus" || suite_name == "trajectory" || suite_name == "safety" ||
+                           suite_name == "loop" || suite_name == "kim";
+  if (chosen.empty() && !other_suite) {
+    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, all, bus, trajectory, safety, loop; got '%s'\n",
+                 names.c_str(), suite_name.c_str());
+    return 2;
+  }
+  std::string command = "mgc-bench";
+  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
+  if (!out_dir.empty()) {
+    // Checked before the suites run, so that a long run does not end in a folder it cannot write.
+    std::error_code error;
+    std::filesystem::create_directories(out_dir, error);
+    if (error || !std::filesystem::is_directory(out_dir) || ::access(out_dir.c_str(), W_OK) != 0) {
+      std::fprintf(stderr, "mgc-bench: --out: cannot write to the folder '%s': %s\n", out_dir.c_str(),
+                   error ? error.message().c_str() : "not a writable folder");
+      return 2;
+    }
+  }
+  const mgc::bench::KimBenchOptions kim{scenarios_dir, out_dir, command, runs, first_seed};
   if (suite_name == "bus") return mgc::bench::run_bus_suite({scenarios_dir, out_dir, bus_samples});
   if (suite_name == "trajectory") return mgc::bench::run_trajectory_suite({out_dir, trajectory_cases, first_seed});
   if (suite_name == "safety") return mgc::bench::run_safety_suite({scenarios_dir, out_dir, 2000, first_seed});
@@ -90,22 +134,11 @@ int main(int argc, char** argv) {
     loop.first_seed = first_seed;
     return mgc::bench::run_loop_suite(loop);
   }
-  if (suite_name == "kim") return mgc::bench::run_kim_suite({scenarios_dir, out_dir, runs, first_seed});
-  std::vector<std::pair<std::string, PlanningSuite>> chosen;
-  for (const auto& suite : planning_suites()) {
-    // The zhang suite holds the re-planning tables (its Table 5), so `all` does not run them twice.
-    if ((suite_name == "all" && suite.first != "replan") || suite_name == suite.first) chosen.push_back(suite);
-  }
-  if (chosen.empty()) {
-    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, all, bus, trajectory, safety, kim, loop; got '%s'\n", names.c_str(), suite_name.c_str());
-    return 2;
-  }
+  if (suite_name == "kim") return mgc::bench::run_kim_suite(kim);
   // OMPL's global seed takes effect only before its first random generator exists: set it now.
   if (!mgc::bench::seed_ompl(static_cast<std::uint32_t>(first_seed))) {
     std::fprintf(stderr, "mgc-bench: OMPL refused the global seed; BIT* runs will not repeat\n");
   }
-  std::string command = "mgc-bench";
-  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
   const mgc::bench::PlanningBenchOptions options{scenarios_dir, out_dir, runs, first_seed, ompl};
   const auto t0 = std::chrono::steady_clock::now();
   int exit_code = 0;
@@ -113,7 +146,12 @@ int main(int argc, char** argv) {
     const int code = run(options, command);
     if (code != 0) exit_code = code;
   }
-  std::fprintf(stderr, "mgc-bench: %zu planning suite(s) in %.1f s\n", chosen.size(),
+  // `all` is every seed paper's suite: the dual-crane one too.
+  if (suite_name == "all") {
+    const int code = mgc::bench::run_kim_suite(kim);
+    if (code != 0) exit_code = code;
+  }
+  std::fprintf(stderr, "mgc-bench: %zu suite(s) in %.1f s\n", chosen.size() + (suite_name == "all" ? 1 : 0),
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   return exit_code;
 }
