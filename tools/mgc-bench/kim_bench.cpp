@@ -9,11 +9,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <vector>
 
 #include "json_writer.hpp"
+#include "planning_bench.hpp"
 #include "mgc/planning/dual_crane.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/planners/multi_rrt.hpp"
@@ -124,14 +126,6 @@ Run run_once(io::LoadedScenario& loaded, const std::string& planner_name, const 
   return r;
 }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(std::min<double>(static_cast<double>(v.size() - 1),
-                                                           std::ceil(p * static_cast<double>(v.size())) - 1));
-  return v[i];
-}
-
 template <class F>
 std::vector<double> successful(const std::vector<Run>& runs, F field) {
   std::vector<double> out;
@@ -139,12 +133,6 @@ std::vector<double> successful(const std::vector<Run>& runs, F field) {
     if (r.success) out.push_back(field(r));
   }
   return out;
-}
-
-double mean(const std::vector<double>& v) {
-  double s = 0.0;
-  for (double x : v) s += x;
-  return v.empty() ? std::nan("") : s / static_cast<double>(v.size());
 }
 
 struct Published {
@@ -229,6 +217,8 @@ int run_kim_suite(const KimBenchOptions& options) {
   const char* const scenarios[] = {"kim-s1.yaml", "kim-s2.yaml", "kim-s3.yaml"};
   const char* const planners[] = {"multi-rrt", "rrt-connect", "rrt"};
   std::vector<Record> records;
+  // Table 2's comparison, then Table 3's sweep: 3 scenarios by 3 planners, 3 by 3 tilts.
+  auto progress = std::make_unique<Progress>("kim", 2 * 9 * runs);
   const auto record = [&](const char* table, const char* scenario, const char* planner, double tilt, std::uint64_t seed,
                           const Run& r) { records.push_back({table, scenario, planner, tilt, seed, r}); };
   char line[1024];
@@ -250,7 +240,7 @@ int run_kim_suite(const KimBenchOptions& options) {
     for (int pi = 0; pi < 3; ++pi) {
       std::vector<Run> results;
       for (int i = 0; i < runs; ++i) {
-        std::fprintf(stderr, "\r[kim] %s %s %d/%d   ", scenarios[si], planners[pi], i + 1, runs);
+        progress->tick(std::string(scenarios[si]) + " " + planners[pi]);
         const std::uint64_t seed = options.first_seed + static_cast<std::uint64_t>(i);
         results.push_back(run_once(loaded, planners[pi], options, seed));
         record("main", scenarios[si], planners[pi], 10.0, seed, results.back());
@@ -271,7 +261,6 @@ int run_kim_suite(const KimBenchOptions& options) {
       if (pi == 0) multi_results.push_back(results);
     }
   }
-  std::fprintf(stderr, "\n");
 
   md += "\nmulti-rrt beside seed 004's Table 2 (MATLAB, mean seconds; ours: mean ms and mean trees rooted):\n\n"
         "| scenario | iterations | trees | plan ms | smooth ms | total ms | paper iterations | paper iteration s | paper "
@@ -302,7 +291,7 @@ int run_kim_suite(const KimBenchOptions& options) {
       io::LoadedScenario loaded = load(options, scenarios[si], tilts[ti]);
       std::vector<Run> results;
       for (int i = 0; i < runs; ++i) {
-        std::fprintf(stderr, "\r[kim] table 3 %s %.0f deg %d/%d   ", scenarios[si], tilts[ti], i + 1, runs);
+        progress->tick("table 3 " + std::string(scenarios[si]) + " " + std::to_string(static_cast<int>(tilts[ti])) + " deg");
         const std::uint64_t seed = options.first_seed + static_cast<std::uint64_t>(i);
         results.push_back(run_once(loaded, "multi-rrt", options, seed));
         record("table3", scenarios[si], "multi-rrt", tilts[ti], seed, results.back());
@@ -322,11 +311,11 @@ int run_kim_suite(const KimBenchOptions& options) {
       md += line;
     }
   }
-  std::fprintf(stderr, "\n");
   std::snprintf(line, sizeof line,
                 "\nScenario 3 at the same budget: multi-rrt %.0f %%, rrt-connect %.0f %%, rrt %.0f %% solved.\n",
                 100.0 * s3_success[0], 100.0 * s3_success[1], 100.0 * s3_success[2]);
   md += line;
+  progress.reset();  // its last line before the tables
   std::printf("%s", md.c_str());
   if (!options.out_dir.empty()) write_files(options, md, records);
   return 0;
