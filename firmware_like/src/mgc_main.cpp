@@ -26,6 +26,7 @@
 #include "mgc/hal/clock.hpp"
 #include "mgc/hal/hal.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/tools/cli_checks.hpp"
 
 namespace {
 
@@ -77,7 +78,7 @@ int main(int argc, char** argv) {
                  "acknowledgement from LCM can be accepted");
   app.add_flag("--goal-on-start", goal_on_start, "request the scenario's goal as soon as the machine is ready (HOLD)");
   app.add_flag("--exit-when-done", exit_when_done, "exit once the goal is reached (0) or the lift ends in FAULT/ESTOP or is dropped (1)");
-  app.add_option("--duration", duration_s, "stop after this many seconds (default: until SIGINT/SIGTERM)")->check(CLI::NonNegativeNumber);
+  app.add_option("--duration", duration_s, "stop after this many seconds (default: until SIGINT/SIGTERM)")->check(mgc::tools::nonnegative_number());
   app.add_option("--fifo-priority", fifo_priority, "SCHED_FIFO priority 1..99 when permitted (0: off)")->check(CLI::Range(0, 99));
   app.add_flag("--mlock", lock_memory, "lock the process's memory (mlockall) when permitted");
   app.add_option("--trace-csv", trace_csv, "write the controller's view at 10 Hz here (CSV; mgc-plan --trace draws it)");

@@ -20,6 +20,7 @@
 #include "mgc/firmware/command_auth.hpp"
 #include "mgc/firmware/lcm_feed.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/tools/cli_checks.hpp"
 
 namespace {
 
@@ -143,7 +144,7 @@ int main(int argc, char** argv) {
   app.add_flag("--goal", goal, "request the scenario's goal (signed)");
   app.add_flag("--stop", stop, "stop (unsigned: obeyed from anyone)");
   app.add_flag("--ack", acknowledge, "acknowledge every alert waiting for it (signed)");
-  app.add_option("--watch", watch_s, "print the guidance and alerts for this many seconds")->check(CLI::NonNegativeNumber);
+  app.add_option("--watch", watch_s, "print the guidance and alerts for this many seconds")->check(mgc::tools::nonnegative_number());
   app.add_flag("--until-done", until_done, "with --watch: end when a lift ends (EXECUTING to HOLD) or in FAULT or ESTOP");
   app.add_option("--sender-id", sender_id, "this station's id")->capture_default_str();
   try {

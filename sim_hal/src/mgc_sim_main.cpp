@@ -17,6 +17,7 @@
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/sim/simulator.hpp"
 #include "mgc/sim/truth_monitor.hpp"
+#include "mgc/tools/cli_checks.hpp"
 
 namespace {
 
@@ -116,7 +117,7 @@ int main(int argc, char** argv) {
   app.add_option("--bus", bus_url, "CAN bus URL: loop:, udp:HOST:PORT,peer=HOST:PORT, socketcan:IFNAME (docs/protocol.md)")
       ->capture_default_str();
   app.add_option("--duration", duration_s, "stop after this many seconds (default: until SIGINT/SIGTERM)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(mgc::tools::nonnegative_number());
   app.add_option("--truth-csv", truth_csv, "write the true machine state here (CSV)");
   app.add_option("--truth-period-ms", truth_period_ms, "truth log period [ms]")->capture_default_str()->check(CLI::Range(1.0, 10'000.0));
   app.add_option("--monitor-period-ms", monitor_period_ms,

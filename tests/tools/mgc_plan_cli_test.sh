@@ -33,6 +33,8 @@ expect_bad "no mode" "give either --check or --planner" --scenario "$root/scenar
 expect_bad "both modes" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --planner limcon
 expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic, cart-rrt, multi-rrt, got 'bogus'$" \
   --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner bogus
+expect_bad "zero iterations" "^mgc-plan: --max-iterations: expected a number above 0, got '0' \\(see --help\\)$" \
+  --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner limcon --max-iterations 0
 expect_bad "planning from an infeasible goal" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasible" \
   --scenario "$tmp/goal-in-frame.yaml" --planner limcon
 

@@ -7,15 +7,15 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <system_error>
 #include <utility>
 #include <vector>
+
+#include "mgc/tools/cli_checks.hpp"
 
 #include "bus_bench.hpp"
 #include "kim_bench.hpp"
@@ -41,20 +41,6 @@ const std::vector<std::pair<std::string, PlanningSuite>>& planning_suites() {
   return all;
 }
 
-// CLI11's PositiveNumber and NonNegativeNumber name their range up to the largest double when they
-// refuse a value; these say what was expected in words.
-CLI::Validator number_check(bool zero_allowed) {
-  return CLI::Validator(
-      [zero_allowed](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        const bool number = end != text.c_str() && *end == '\0' && std::isfinite(v);
-        if (number && (zero_allowed ? v >= 0.0 : v > 0.0)) return {};
-        return std::string("expected a number ") + (zero_allowed ? "of 0 or more" : "above 0") + ", got '" + text + "'";
-      },
-      zero_allowed ? "NONNEGATIVE" : "POSITIVE");
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -72,27 +58,27 @@ int main(int argc, char** argv) {
   for (const auto& [name, run] : planning_suites()) names += std::string(names.empty() ? "" : ", ") + name;
   app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), all (the seed papers' suites: thesis, zhang, langari, kim), bus (fieldbus), trajectory, safety or loop (control cycle)");
   app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51; kim 100)")
-      ->check(number_check(false));
+      ->check(mgc::tools::positive_number());
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
   app.add_option("--out", out_dir, "write <suite>.csv (every run), <suite>.json and <suite>.md (the tables) here");
   app.add_option("--scenarios", scenarios_dir, "folder of the shipped scenarios");
-  app.add_option("--bus-samples", bus_samples, "bus suite: SYNC round trips per latency case")->check(number_check(false));
-  app.add_option("--trajectory-cases", trajectory_cases, "trajectory suite: calculations per case")->check(number_check(false));
-  app.add_option("--loop-cycles", loop.cycles, "loop suite: timed controller cycles at 100 Hz")->check(number_check(false));
+  app.add_option("--bus-samples", bus_samples, "bus suite: SYNC round trips per latency case")->check(mgc::tools::positive_number());
+  app.add_option("--trajectory-cases", trajectory_cases, "trajectory suite: calculations per case")->check(mgc::tools::positive_number());
+  app.add_option("--loop-cycles", loop.cycles, "loop suite: timed controller cycles at 100 Hz")->check(mgc::tools::positive_number());
   app.add_option("--reaction-runs", loop.reaction_runs, "loop suite: intrusion runs per reaction case (100 Hz and 500 Hz with the tags at 10 Hz, 100 Hz with them at 100 Hz)")
-      ->check(number_check(false));
+      ->check(mgc::tools::positive_number());
   app.add_option("--loop-seconds", loop.loop_seconds, "loop suite: seconds of the live cyclic executive (0: skip)")
-      ->check(number_check(true));
+      ->check(mgc::tools::nonnegative_number());
   app.add_option("--sweep-first", loop.sweep_first_s, "loop suite: the intrusion sweep's first script offset of crane 2 [s]");
   app.add_option("--sweep-last", loop.sweep_last_s, "loop suite: the intrusion sweep's last script offset of crane 2 [s]");
   app.add_option("--sweep-step", loop.sweep_step_s, "loop suite: the intrusion sweep's offset step (0: skip the sweep) [s]")
-      ->check(number_check(true));
+      ->check(mgc::tools::nonnegative_number());
   app.add_option("--sweep-limit", loop.sweep_limit_s, "loop suite: simulated seconds a sweep run may take to reach the goal")
-      ->check(number_check(false));
+      ->check(mgc::tools::positive_number());
   app.add_option("--ompl-time-limit", ompl.time_limit_s, "OMPL: seconds per query before it counts as a failure")
-      ->check(number_check(false));
+      ->check(mgc::tools::positive_number());
   app.add_option("--ompl-range", ompl.range_steps, "OMPL RRT/RRTConnect extension length in steps; 0: our extend step")
-      ->check(number_check(true));
+      ->check(mgc::tools::nonnegative_number());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

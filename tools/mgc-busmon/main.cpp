@@ -17,6 +17,7 @@
 #include "mgc/hal/hal.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/sim/simulator.hpp"
+#include "mgc/tools/cli_checks.hpp"
 
 namespace {
 
@@ -53,8 +54,8 @@ int main(int argc, char** argv) {
   bool require_valid = false;
   app.add_option("--scenario", scenario_file, "scenario whose machine is on the bus")->required();
   app.add_option("--bus", bus_url, "CAN bus URL (docs/protocol.md)")->capture_default_str();
-  app.add_option("--duration", duration_s, "run this long [s]")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--print-every", print_every_s, "print the snapshot this often [s]")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--duration", duration_s, "run this long [s]")->capture_default_str()->check(mgc::tools::positive_number());
+  app.add_option("--print-every", print_every_s, "print the snapshot this often [s]")->capture_default_str()->check(mgc::tools::positive_number());
   app.add_flag("--start", start, "send NMT Start to all nodes once every device has been heard");
   app.add_flag("--require-valid", require_valid, "exit 1 unless every joint is valid at the end");
   try {

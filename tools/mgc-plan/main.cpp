@@ -29,6 +29,7 @@
 #include "mgc/planning/planners/cart_rrt.hpp"
 #include "mgc/planning/planners/planner.hpp"
 #include "mgc/planning/smoothing.hpp"
+#include "mgc/tools/cli_checks.hpp"
 
 namespace {
 
@@ -297,8 +298,8 @@ int main(int argc, char** argv) {
   auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: " + planner_list);
   auto* seed_option = app.add_option("--seed", seed, "random seed (default: the scenario's)");
   auto* iterations_option =
-      app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(CLI::PositiveNumber);
-  app.add_option("--time-limit", options.time_limit_s, "wall-clock limit on planning [s] (default 60)")->check(CLI::PositiveNumber);
+      app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(mgc::tools::positive_number());
+  app.add_option("--time-limit", options.time_limit_s, "wall-clock limit on planning [s] (default 60)")->check(mgc::tools::positive_number());
   app.add_option("--json", options.json, "write the plan and its metrics here (docs/plan-json.md)");
   app.add_option("--svg", options.svg, "draw top and side views of the site, the machine at start and goal, and the path");
   app.add_flag("--svg-tree", options.svg_tree, "also draw the planner's tree in the --svg views");
@@ -306,7 +307,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-smooth", no_smooth, "keep the planner's raw path (default: shortcut-smoothed)");
   app.add_option("--envelope-margin", options.envelope_margin_m,
                  "keep the scenario's working envelope (its envelope section) by this much [m] (default 1.25, as mgc)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(mgc::tools::nonnegative_number());
   std::string trace;
   app.add_option("--trace", trace, "draw a controller run instead of planning: the trace of mgc --trace-csv, into --svg");
   bool cycle = false;
