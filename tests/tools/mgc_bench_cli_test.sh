@@ -19,6 +19,11 @@ expect_bad "--out names a file" "^mgc-bench: --out: cannot write to the folder '
 expect_bad "unknown suite leaves --out alone" "got 'bogus'" --suite bogus --out "$tmp/bogus-out"
 [ -e "$tmp/bogus-out" ] && fail "a refused suite created its --out folder"
 
+for suite in thesis zhang langari kim safety; do
+  expect_bad "$suite without its scenario" "^mgc-bench: (.*: )?$tmp/none/[a-z0-9-]+\\.yaml: cannot open the file$" \
+    --suite "$suite" --runs 1 --scenarios "$tmp/none"
+done
+
 # run <suite> <runs> <seed> <folder>
 run() {
   "$cli" --suite "$1" --runs "$2" --seed "$3" --out "$4" >"$tmp/out" 2>"$tmp/err"

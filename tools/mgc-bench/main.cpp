@@ -9,12 +9,14 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <string>
 #include <system_error>
 #include <utility>
 #include <vector>
 
+#include "mgc/planning/io/input_error.hpp"
 #include "mgc/tools/cli_checks.hpp"
 
 #include "bus_bench.hpp"
@@ -111,33 +113,44 @@ int main(int argc, char** argv) {
     }
   }
   const mgc::bench::KimBenchOptions kim{scenarios_dir, out_dir, command, runs, first_seed};
-  if (suite_name == "bus") return mgc::bench::run_bus_suite({scenarios_dir, out_dir, bus_samples});
-  if (suite_name == "trajectory") return mgc::bench::run_trajectory_suite({out_dir, trajectory_cases, first_seed});
-  if (suite_name == "safety") return mgc::bench::run_safety_suite({scenarios_dir, out_dir, 2000, first_seed});
-  if (suite_name == "loop") {
-    loop.scenarios_dir = scenarios_dir;
-    loop.out_dir = out_dir;
-    loop.first_seed = first_seed;
-    return mgc::bench::run_loop_suite(loop);
+  // A suite that meets a scenario file it cannot read says so, like any other bad input.
+  try {
+    if (suite_name == "bus") return mgc::bench::run_bus_suite({scenarios_dir, out_dir, bus_samples});
+    if (suite_name == "trajectory") return mgc::bench::run_trajectory_suite({out_dir, trajectory_cases, first_seed});
+    if (suite_name == "safety") return mgc::bench::run_safety_suite({scenarios_dir, out_dir, 2000, first_seed});
+    if (suite_name == "loop") {
+      loop.scenarios_dir = scenarios_dir;
+      loop.out_dir = out_dir;
+      loop.first_seed = first_seed;
+      return mgc::bench::run_loop_suite(loop);
+    }
+    if (suite_name == "kim") return mgc::bench::run_kim_suite(kim);
+    // OMPL's global seed takes effect only before its first random generator exists: set it now.
+    if (!mgc::bench::seed_ompl(static_cast<std::uint32_t>(first_seed))) {
+      std::fprintf(stderr, "mgc-bench: OMPL refused the global seed; BIT* runs will not repeat\n");
+    }
+    const mgc::bench::PlanningBenchOptions options{scenarios_dir, out_dir, runs, first_seed, ompl};
+    const auto t0 = std::chrono::steady_clock::now();
+    int exit_code = 0;
+    for (const auto& [name, run] : chosen) {
+      const int code = run(options, command);
+      if (code != 0) exit_code = code;
+    }
+    // `all` is every seed paper's suite: the dual-crane one too.
+    if (suite_name == "all") {
+      const int code = mgc::bench::run_kim_suite(kim);
+      if (code != 0) exit_code = code;
+    }
+    if (exit_code == 0) {
+      std::fprintf(stderr, "mgc-bench: %zu suite(s) in %.1f s\n", chosen.size() + (suite_name == "all" ? 1 : 0),
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    return exit_code;
+  } catch (const mgc::planning::io::InputError& e) {
+    std::fprintf(stderr, "mgc-bench: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mgc-bench: %s\n", e.what());
+    return 1;
   }
-  if (suite_name == "kim") return mgc::bench::run_kim_suite(kim);
-  // OMPL's global seed takes effect only before its first random generator exists: set it now.
-  if (!mgc::bench::seed_ompl(static_cast<std::uint32_t>(first_seed))) {
-    std::fprintf(stderr, "mgc-bench: OMPL refused the global seed; BIT* runs will not repeat\n");
-  }
-  const mgc::bench::PlanningBenchOptions options{scenarios_dir, out_dir, runs, first_seed, ompl};
-  const auto t0 = std::chrono::steady_clock::now();
-  int exit_code = 0;
-  for (const auto& [name, run] : chosen) {
-    const int code = run(options, command);
-    if (code != 0) exit_code = code;
-  }
-  // `all` is every seed paper's suite: the dual-crane one too.
-  if (suite_name == "all") {
-    const int code = mgc::bench::run_kim_suite(kim);
-    if (code != 0) exit_code = code;
-  }
-  std::fprintf(stderr, "mgc-bench: %zu suite(s) in %.1f s\n", chosen.size() + (suite_name == "all" ? 1 : 0),
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  return exit_code;
 }
