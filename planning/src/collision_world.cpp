@@ -893,7 +893,13 @@ void CollisionWorld::add_ball(const JointVector& q) noexcept {
     search.body_aabb = body->getAABB();
     search.best = radius_m;
     if (root != nullptr) search.search(root);
-    for (const auto& dynamic : impl.dynamics) {
+    for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
+      const auto& dynamic = impl.dynamics[d];
+      // Every part lies inside the obstacle's box, so no part is nearer than it; a copy at the
+      // very pose of its twin, measured before it, gives the same gaps again.
+      if (aabb_distance_sq(search.body_aabb, dynamic.bounds) >= search.best * search.best) continue;
+      const int twin = dynamic.twin;
+      if (twin >= 0 && dynamic.pose.matrix() == impl.dynamics[static_cast<std::size_t>(twin)].pose.matrix()) continue;
       for (const auto& part : dynamic.parts) search.measure(part.object.get(), part.object->getAABB());
     }
     radius_m = search.best;

@@ -34,11 +34,18 @@ struct Tally {
 //! sample must agree bit for bit.
 //! `least`: the fewest edges of each verdict the draw must give, so that every kind is met, and
 //! `certified_share` the least share of samples certified.
+//! `predicted_poses` > 0: each dynamic obstacle stands in the worlds that many times more, as the
+//! execution's prediction puts it (build_world); the copies are moved all to one pose (identical
+//! twins) or each to its own.
 void compare_with_reference(const std::string& scenario, int edges, std::uint64_t seed, double certified_share,
-                            const Tally& least) {
+                            const Tally& least, int predicted_poses = 0) {
   const auto path = mgc::test::source_path("scenarios/" + scenario);
   io::LoadedScenario fast = io::load_and_build(path);
   io::LoadedScenario slow = io::load_and_build(path);
+  if (predicted_poses > 0) {
+    fast.world = build_world(fast.scenario, *fast.model, 0.0, predicted_poses);
+    slow.world = build_world(slow.scenario, *slow.model, 0.0, predicted_poses);
+  }
   CollisionWorld& world = *fast.world;
   CollisionWorld& reference = *slow.world;
   reference.certify_edges(false);
@@ -63,8 +70,13 @@ void compare_with_reference(const std::string& scenario, int edges, std::uint64_
                                     pose.translation().z()) *
                Eigen::AngleAxisd(random.uniform(-3.14159, 3.14159), Eigen::Vector3d::UnitZ());
       }
-      world.set_dynamic_pose(static_cast<int>(d), pose);
-      reference.set_dynamic_pose(static_cast<int>(d), pose);
+      const bool twins = predicted_poses > 0 && random.uniform() < 0.5;
+      for (int k = 0; k <= predicted_poses; ++k) {
+        const int index = static_cast<int>(d) * (predicted_poses + 1) + k;
+        if (k > 0 && !twins) pose = dynamics[d].pose_at(random.uniform(0.0, dynamics[d].motion.back().t_s + 1.0));
+        world.set_dynamic_pose(index, pose);
+        reference.set_dynamic_pose(index, pose);
+      }
     }
   };
   const auto random_configuration = [&] {
@@ -160,6 +172,14 @@ TEST_CASE("certified edge checks give the full check's verdict on the excavator 
   compare_with_reference("excavator-pipelines.yaml", 3000, 20261204, 0.15, {7000, 1100, 0, 350});
   // (9072, 1470, 80, 483; 0.23)
   compare_with_reference("excavator-truck.yaml", 3000, 20261205, 0.15, {7000, 1100, 60, 350});
+}
+
+TEST_CASE("certified edge checks give the full check's verdict with the prediction's copies", "[unit][oracle]") {
+  // Three copies of each obstacle besides the present one, as the execution poses them.
+  // (3468, 442, 115, 725; 0.87)
+  compare_with_reference("thesis-steel-frame.yaml", 1500, 20261206, 0.7, {3000, 380, 90, 600}, 3);
+  // (7728, 247, 132, 173; 0.92)
+  compare_with_reference("thesis-steel-frame-tower.yaml", 1500, 20261207, 0.8, {6500, 200, 100, 140}, 3);
 }
 
 TEST_CASE("a clearance ball goes when a dynamic obstacle moves and stays when it is posed where it stands", "[unit]") {
