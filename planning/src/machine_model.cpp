@@ -145,11 +145,18 @@ Eigen::Vector3d hang_load(const Eigen::Matrix3d& heading, const Eigen::Vector3d&
 }
 
 Eigen::Isometry3d dh_modified(double alpha_prev_rad, double a_prev_m, double theta_rad, double d_m) noexcept {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.rotate(Eigen::AngleAxisd(alpha_prev_rad, Eigen::Vector3d::UnitX()));
-  t.translate(Eigen::Vector3d(a_prev_m, 0.0, 0.0));
-  t.rotate(Eigen::AngleAxisd(theta_rad, Eigen::Vector3d::UnitZ()));
-  t.translate(Eigen::Vector3d(0.0, 0.0, d_m));
+  // Rot_x(alpha) Trans_x(a) Rot_z(theta) Trans_z(d) multiplied out (Craig's form): forward
+  // kinematics runs at every collision query, and composing the four takes several times as long.
+  const double ca = std::cos(alpha_prev_rad);
+  const double sa = std::sin(alpha_prev_rad);
+  const double ct = std::cos(theta_rad);
+  const double st = std::sin(theta_rad);
+  Eigen::Isometry3d t;
+  t.linear() << ct, -st, 0.0,
+                st * ca, ct * ca, -sa,
+                st * sa, ct * sa, ca;
+  t.translation() << a_prev_m, -sa * d_m, ca * d_m;
+  t.makeAffine();
   return t;
 }
 

@@ -60,6 +60,24 @@ TEST_CASE("mobile crane forward kinematics match hand-computed poses", "[unit]")
   }
 }
 
+TEST_CASE("dh_modified is Craig's product Rot_x(alpha) Trans_x(a) Rot_z(theta) Trans_z(d)", "[unit]") {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi);
+  std::uniform_real_distribution<double> length(-40.0, 40.0);
+  for (int n = 0; n < 500; ++n) {
+    const double alpha = angle(rng);
+    const double a = length(rng);
+    const double theta = angle(rng);
+    const double d = length(rng);
+    const Eigen::Isometry3d product = Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitX()) * Eigen::Translation3d(a, 0.0, 0.0) *
+                                      Eigen::AngleAxisd(theta, Eigen::Vector3d::UnitZ()) * Eigen::Translation3d(0.0, 0.0, d);
+    const Eigen::Isometry3d t = dh_modified(alpha, a, theta, d);
+    CAPTURE(n, alpha, a, theta, d);
+    CHECK((t.matrix() - product.matrix()).cwiseAbs().maxCoeff() < 1e-12);
+    CHECK((t.matrix().row(3) - Eigen::RowVector4d(0.0, 0.0, 0.0, 1.0)).norm() == 0.0);
+  }
+}
+
 TEST_CASE("mobile crane follows the thesis DH product (Eq. 3.1) under the stated frame mapping", "[unit]") {
   const MobileCrane crane = make_crane();
   std::mt19937_64 rng(7);
