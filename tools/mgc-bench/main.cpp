@@ -142,6 +142,8 @@ int main(int argc, char** argv) {
       if (code != 0) exit_code = code;
     }
     if (exit_code == 0) {
+      // The tables first, where both streams go to one log.
+      std::fflush(stdout);
       std::fprintf(stderr, "mgc-bench: %zu suite(s) in %.1f s\n", chosen.size() + (suite_name == "all" ? 1 : 0),
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
