@@ -479,6 +479,12 @@ struct CollisionWorld::Impl {
   int dynamic_hit(std::size_t b) noexcept;
   //! Whether self pair p collides at the two bodies' present poses.
   bool pair_hit(std::size_t p, const SelfPair& pair) noexcept;
+  //! Whether dynamic obstacle d stands at the very pose of its twin (identical parts, added
+  //! before it), so that every answer about it is its twin's.
+  [[nodiscard]] bool stands_on_twin(std::size_t d) const noexcept {
+    const int twin = dynamics[d].twin;
+    return twin >= 0 && dynamics[d].pose.matrix() == dynamics[static_cast<std::size_t>(twin)].pose.matrix();
+  }
   std::vector<std::unique_ptr<PosedObject>> statics;
   std::vector<Dynamic> dynamics;
   std::vector<std::vector<ShapePart>> dynamic_shapes;  //!< each dynamic obstacle's parts as added, to find twins
@@ -512,10 +518,9 @@ int CollisionWorld::Impl::dynamic_hit(std::size_t b) noexcept {
   CollisionObject* body = bodies[b].object.get();
   for (std::size_t d = 0; d < dynamics.size() && hit < 0; ++d) {
     if (!body->getAABB().overlap(dynamics[d].bounds)) continue;
-    // Standing exactly where its twin stands, checked before it and missed, it misses too (the
-    // prediction's copies, all posed at the present time while the machine moves out of it).
-    const int twin = dynamics[d].twin;
-    if (twin >= 0 && dynamics[d].pose.matrix() == dynamics[static_cast<std::size_t>(twin)].pose.matrix()) continue;
+    // Checked before it and missed: it misses too (the prediction's copies, all posed at the
+    // present time while the machine moves out of it).
+    if (stands_on_twin(d)) continue;
     for (auto& part : dynamics[d].parts) {
       if (!body->getAABB().overlap(part.object->getAABB())) continue;
       if (intersects(body, part.object.get(), collision_request, collision_result)) {
@@ -895,11 +900,10 @@ void CollisionWorld::add_ball(const JointVector& q) noexcept {
     if (root != nullptr) search.search(root);
     for (std::size_t d = 0; d < impl.dynamics.size(); ++d) {
       const auto& dynamic = impl.dynamics[d];
-      // Every part lies inside the obstacle's box, so no part is nearer than it; a copy at the
-      // very pose of its twin, measured before it, gives the same gaps again.
+      // Every part lies inside the obstacle's box, so no part is nearer than it; a copy on its
+      // twin, measured before it, gives the same gaps again.
       if (aabb_distance_sq(search.body_aabb, dynamic.bounds) >= search.best * search.best) continue;
-      const int twin = dynamic.twin;
-      if (twin >= 0 && dynamic.pose.matrix() == impl.dynamics[static_cast<std::size_t>(twin)].pose.matrix()) continue;
+      if (impl.stands_on_twin(d)) continue;
       for (const auto& part : dynamic.parts) search.measure(part.object.get(), part.object->getAABB());
     }
     radius_m = search.best;

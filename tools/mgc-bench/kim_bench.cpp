@@ -216,8 +216,9 @@ int run_kim_suite(const KimBenchOptions& options) {
   const int runs = options.runs > 0 ? options.runs : 100;
   const char* const scenarios[] = {"kim-s1.yaml", "kim-s2.yaml", "kim-s3.yaml"};
   const char* const planners[] = {"multi-rrt", "rrt-connect", "rrt"};
-  // Every file read before the first run, so that a bad one ends the suite before it starts.
-  for (const char* scenario : scenarios) (void)io::load_scenario(std::filesystem::path(options.scenarios_dir) / scenario);
+  // Every site loaded before the first run, so that a bad file ends the suite before it starts.
+  std::vector<io::LoadedScenario> sites;
+  for (const char* scenario : scenarios) sites.push_back(load(options, scenario, 0.0));
   std::vector<Record> records;
   // Table 2's comparison, then Table 3's sweep: 3 scenarios by 3 planners, 3 by 3 tilts.
   auto progress = std::make_unique<Progress>("kim", 2 * 9 * runs);
@@ -238,7 +239,7 @@ int run_kim_suite(const KimBenchOptions& options) {
   std::vector<std::vector<Run>> multi_results;
   std::vector<double> s3_success(3, 0.0);
   for (int si = 0; si < 3; ++si) {
-    io::LoadedScenario loaded = load(options, scenarios[si], 0.0);
+    io::LoadedScenario& loaded = sites[static_cast<std::size_t>(si)];
     for (int pi = 0; pi < 3; ++pi) {
       std::vector<Run> results;
       for (int i = 0; i < runs; ++i) {
