@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/planning/planners/single_axis_tree.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -146,6 +147,10 @@ bool SingleAxisTreePlanner::near_goal(const JointVector& q) const noexcept {
 bool SingleAxisTreePlanner::finish(int node) noexcept {
   path_.clear();
   tree_.append_root_to(node, path_);
+  if (!absorb_rounding(path_, problem_->goal)) {
+    path_.clear();
+    return false;
+  }
   // MSL jumps the last gap in one move; moving the remaining joints one at a time, each move
   // validated at step resolution, keeps every edge single-axis and lands on the exact goal.
   JointVector current = path_.back();
@@ -161,6 +166,26 @@ bool SingleAxisTreePlanner::finish(int node) noexcept {
     current = next;
   }
   solved_node_ = node;
+  return true;
+}
+
+bool SingleAxisTreePlanner::absorb_rounding(std::vector<JointVector>& path, const JointVector& goal) noexcept {
+  // Far below any step, and far above the rounding of a sum of steps.
+  constexpr double kRoundingSteps = 1e-9;
+  const MachineModel& model = *problem_->model;
+  std::size_t first_changed = path.size();
+  for (int i = 0; i < model.dof(); ++i) {
+    const double gap = model.difference(path.back(), goal)[i];
+    if (gap == 0.0 || std::abs(gap) >= kRoundingSteps * problem_->step[i]) continue;
+    std::size_t e = path.size() - 1;
+    while (e > 0 && model.difference(path[e - 1], path[e])[i] == 0.0) --e;
+    if (e == 0) continue;
+    for (std::size_t k = e; k < path.size(); ++k) path[k][i] = goal[i];
+    first_changed = std::min(first_changed, e);
+  }
+  for (std::size_t k = first_changed; k < path.size(); ++k) {
+    if (!problem_->world->validate_edge(path[k - 1], path[k], problem_->step).valid()) return false;
+  }
   return true;
 }
 

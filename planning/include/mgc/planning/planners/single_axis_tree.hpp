@@ -65,6 +65,12 @@ class SingleAxisTreePlanner : public Planner {
   //! From the node nearest the goal, close the remaining gap one joint at a time with validated
   //! moves and write the path. False if a closing move is invalid.
   [[nodiscard]] bool finish(int node) noexcept;
+  //! Steps of one joint summed in floating point can leave it a rounding error (1e-13 rad) from
+  //! the goal, and closing that gap would be an edge of no length. Instead the joint takes the
+  //! goal's value from the end of the last edge of `path` that moved it, the edges from there on
+  //! re-validated; a gap the start already has is closed as any other. False when a re-validated
+  //! edge is invalid. RT-safe.
+  [[nodiscard]] bool absorb_rounding(std::vector<JointVector>& path, const JointVector& goal) noexcept;
 
   PlannerStatus status_ = PlannerStatus::NotReset;
   int solved_node_ = -1;
