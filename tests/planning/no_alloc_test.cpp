@@ -59,7 +59,7 @@ TEST_CASE("collision queries and dynamic moves do not allocate after finalize", 
 }
 
 TEST_CASE("planner step() does not allocate after reset", "[unit]") {
-  for (const char* planner_name : {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform",
+  for (const char* planner_name : {"axis-connect", "limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "nonuniform",
                                    "anytime", "cart-rrt"}) {
     for (const char* name : {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "excavator-pipelines.yaml"}) {
       // nonuniform is the excavator's planner; it does not get round the cranes' frame.

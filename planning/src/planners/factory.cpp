@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/planning/planners/planner.hpp"
 #include "mgc/planning/planners/anytime.hpp"
+#include "mgc/planning/planners/axis_connect.hpp"
 #include "mgc/planning/planners/bidirectional.hpp"
 #include "mgc/planning/planners/cart_rrt.hpp"
 #include "mgc/planning/planners/multi_rrt.hpp"
@@ -10,6 +11,7 @@
 namespace mgc::planning {
 
 std::unique_ptr<Planner> make_planner(std::string_view name) {
+  if (name == "axis-connect") return std::make_unique<AxisConnectPlanner>();
   if (name == "limcon") return std::make_unique<LimConPlanner>();
   if (name == "rrt") return std::make_unique<GoalBiasedRrtPlanner>();
   using Variant = BidirectionalPlanner::Variant;
@@ -25,6 +27,6 @@ std::unique_ptr<Planner> make_planner(std::string_view name) {
   return nullptr;
 }
 
-std::vector<std::string_view> planner_names() { return {"limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "anytime", "nonuniform", "rrt-basic", "cart-rrt", "multi-rrt"}; }
+std::vector<std::string_view> planner_names() { return {"axis-connect", "limcon", "rrt", "rrt-connect", "rrt-ext-con", "rrt-ext-ext", "con-con-mod", "anytime", "nonuniform", "rrt-basic", "cart-rrt", "multi-rrt"}; }
 
 }  // namespace mgc::planning

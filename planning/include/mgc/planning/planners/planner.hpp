@@ -57,6 +57,9 @@ class Planner {
 
 namespace mgc::planning {
 
+//! The one-joint-at-a-time planner mgc-plan and the controller use unless told otherwise.
+inline constexpr std::string_view kDefaultPlanner = "axis-connect";
+
 //! The planner called `name` on the command line, or nullptr for an unknown name.
 [[nodiscard]] std::unique_ptr<Planner> make_planner(std::string_view name);
 //! Every name make_planner() knows.
