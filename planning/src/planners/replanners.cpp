@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-// The two re-planners of issue 5: the thesis's modified Dynamic RRT on RRTBiasedLimCon (seed 001
-// §1.11, App. F) and seed 000's DRRT-Con-Con-Mod local repair (Fig. 8). docs/replanning.md.
+// The re-planners: the thesis's modified Dynamic RRT on RRTBiasedLimCon (seed 001 §1.11, App. F)
+// and seed 000's DRRT-Con-Con-Mod local repair (Fig. 8), whose bridges also come from the default
+// one-joint-at-a-time planner (drrt-axis-connect). docs/replanning.md.
 #include <algorithm>
 #include <utility>
 
+#include "mgc/planning/planners/axis_connect.hpp"
 #include "mgc/planning/planners/bidirectional.hpp"
 #include "mgc/planning/planners/replanner.hpp"
 #include "mgc/planning/planners/single_axis_tree.hpp"
@@ -215,9 +217,13 @@ class DrrtReplanner final : public Replanner {
 //! the far end of one.
 //! When every remaining node collides the goal itself is covered -- the paper leaves this case
 //! open; here it is GoalOccupied, the path is kept, and the caller holds and asks again.
-class ConConModReplanner final : public Replanner {
+//! The bridges come from `planner`: RRT-Con-Con-Mod as in the paper (drrt-con-con-mod), or
+//! axis-connect (drrt-axis-connect), whose bridges, like its first path, move one joint per edge.
+class BridgingReplanner final : public Replanner {
  public:
-  [[nodiscard]] std::string_view name() const noexcept override { return "drrt-con-con-mod"; }
+  BridgingReplanner(std::string_view name, std::unique_ptr<Planner> planner) : name_(name), planner_(std::move(planner)) {}
+
+  [[nodiscard]] std::string_view name() const noexcept override { return name_; }
 
   PlannerStatus reset(const PlanningProblem& problem, const ReplanSettings& settings) override {
     problem_ = &problem;
@@ -226,10 +232,10 @@ class ConConModReplanner final : public Replanner {
     repairing_ = false;
     bridge_ = problem;
     checks_at_reset_ = problem.world->collision_checks();
-    status_ = planner_.reset(bridge_);
+    status_ = planner_->reset(bridge_);
     // Every bridge reuses the planner with the same caps, so its buffers never grow again; a
     // merged path is a bridge plus what is left of the old path.
-    const std::size_t capacity = 2 * planner_.path().capacity();
+    const std::size_t capacity = 2 * planner_->path().capacity();
     path_.clear();
     candidate_.clear();
     path_.reserve(capacity);
@@ -239,10 +245,10 @@ class ConConModReplanner final : public Replanner {
 
   [[nodiscard]] PlannerStatus step(int iteration_budget) noexcept override {
     if (status_ != PlannerStatus::Running) return status_;
-    const PlannerStatus s = planner_.step(iteration_budget);
+    const PlannerStatus s = planner_->step(iteration_budget);
     if (s == PlannerStatus::Running) return status_;
     if (!repairing_) {
-      if (s == PlannerStatus::Solved) path_.assign(planner_.path().begin(), planner_.path().end());
+      if (s == PlannerStatus::Solved) path_.assign(planner_->path().begin(), planner_->path().end());
       return status_ = s;
     }
     if (s == PlannerStatus::Solved) return status_ = merge();
@@ -279,7 +285,7 @@ class ConConModReplanner final : public Replanner {
   }
 
   [[nodiscard]] ReplanStats stats() const noexcept override {
-    return with_query(stats_, planner_.stats(), problem_, checks_at_reset_);
+    return with_query(stats_, planner_->stats(), problem_, checks_at_reset_);
   }
 
  private:
@@ -296,13 +302,13 @@ class ConConModReplanner final : public Replanner {
     ++stats_.bridge_attempts;
     // Same caps as the first plan: the trees' and path's reserved capacity suffices, so this
     // reset does not allocate.
-    const PlannerStatus s = planner_.reset(bridge_);
+    const PlannerStatus s = planner_->reset(bridge_);
     return s == PlannerStatus::InvalidGoal ? PlannerStatus::IterationLimit : s;
   }
 
   //! Fig. 8 line 24: the bridge, then the old path after the node it reached.
   [[nodiscard]] PlannerStatus merge() noexcept {
-    const std::vector<JointVector>& b = planner_.path();
+    const std::vector<JointVector>& b = planner_->path();
     if (b.size() + (path_.size() - goal_index_ - 1) > candidate_.capacity()) return PlannerStatus::PoolExhausted;
     candidate_.assign(b.begin(), b.end());
     candidate_.insert(candidate_.end(), path_.begin() + static_cast<std::ptrdiff_t>(goal_index_ + 1), path_.end());
@@ -311,7 +317,8 @@ class ConConModReplanner final : public Replanner {
     return PlannerStatus::Solved;
   }
 
-  BidirectionalPlanner planner_{BidirectionalPlanner::Variant::ConConMod};
+  std::string_view name_;
+  std::unique_ptr<Planner> planner_;
   const PlanningProblem* problem_ = nullptr;
   PlanningProblem bridge_;
   ReplanSettings settings_;
@@ -330,10 +337,13 @@ class ConConModReplanner final : public Replanner {
 std::unique_ptr<Replanner> make_replanner(std::string_view name) {
   if (name == "drrt") return std::make_unique<DrrtReplanner>(true);
   if (name == "drrt-rrt") return std::make_unique<DrrtReplanner>(false);
-  if (name == "drrt-con-con-mod") return std::make_unique<ConConModReplanner>();
+  if (name == "drrt-con-con-mod") {
+    return std::make_unique<BridgingReplanner>("drrt-con-con-mod", std::make_unique<BidirectionalPlanner>(BidirectionalPlanner::Variant::ConConMod));
+  }
+  if (name == "drrt-axis-connect") return std::make_unique<BridgingReplanner>("drrt-axis-connect", std::make_unique<AxisConnectPlanner>());
   return nullptr;
 }
 
-std::vector<std::string_view> replanner_names() { return {"drrt", "drrt-rrt", "drrt-con-con-mod"}; }
+std::vector<std::string_view> replanner_names() { return {"drrt-axis-connect", "drrt", "drrt-rrt", "drrt-con-con-mod"}; }
 
 }  // namespace mgc::planning

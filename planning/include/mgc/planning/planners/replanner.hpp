@@ -34,7 +34,7 @@ struct ReplanStats {
   std::uint64_t collision_checks = 0;
 };
 
-//! A planner that keeps repairing its path while the machine executes it (issue 5; seed 001 §1.11,
+//! A planner that keeps repairing its path while the machine executes it (seed 001 §1.11,
 //! seed 000 §4.8). reset() plans the first path; whenever the next motion of the machine would
 //! collide with a dynamic obstacle, the caller stops the machine and calls replan() with where it
 //! stopped; step() then runs the repair in bounded slices. Obstacle poses are whatever the
@@ -70,8 +70,12 @@ class Replanner {
   [[nodiscard]] virtual ReplanStats stats() const noexcept = 0;
 };
 
-//! The re-planner called `name` on the command line ("drrt", "drrt-rrt", "drrt-con-con-mod"), or
-//! nullptr for an unknown name.
+//! The re-planner the controller uses unless told otherwise: repairs bridged by the default
+//! planner, so every edge of the first plan and of every repair moves one joint.
+inline constexpr std::string_view kDefaultReplanner = "drrt-axis-connect";
+
+//! The re-planner called `name` on the command line ("drrt-axis-connect", "drrt", "drrt-rrt",
+//! "drrt-con-con-mod"), or nullptr for an unknown name.
 [[nodiscard]] std::unique_ptr<Replanner> make_replanner(std::string_view name);
 //! Every name make_replanner() knows.
 [[nodiscard]] std::vector<std::string_view> replanner_names();
