@@ -9,8 +9,8 @@
 # true crane's least clearance, measured by the simulator, not the controller), an SVG of what
 # happened (build/demo/lift.svg), the LCM log (build/demo/mgc.lcmlog), the controller's trace and
 # the true machine state (CSV).
-# Then, offline: every shipped scenario loaded, checked and planned (the thesis's planner limcon;
-# the two-crane lifts with multi-rrt; the excavator's work cycle with nonuniform), and the event
+# Then, offline: every shipped scenario loaded, checked and planned (the default one-joint-at-a-time
+# planner axis-connect; the two-crane lifts with multi-rrt; the excavator's work cycle with nonuniform), and the event
 # scenarios executed with re-planning (mgc-bench's replan suite, two seeds). Installs missing
 # Debian packages.
 set -euo pipefail
@@ -84,12 +84,12 @@ for scenario in "$MGC_ROOT"/scenarios/*.yaml; do
   name="$(basename "$scenario" .yaml)"
   echo "=== mgc-plan --scenario $rel --check"
   "$bin/mgc-plan" --scenario "$scenario" --check || status=$?
-  # Two cranes on one girder move their joints together: limcon's one joint at a time would tip
-  # the suspension, so those lifts take seed 004's multi-rrt.
-  planner=limcon
-  if grep -q '^dual_crane:' "$scenario"; then planner=multi-rrt; fi
-  echo "=== mgc-plan --scenario $rel --planner $planner --json build/demo/$name.json"
-  "$bin/mgc-plan" --scenario "$scenario" --planner "$planner" --json "$out/$name.json" || status=$?
+  # Two cranes on one girder move their joints together: one joint at a time would tip the
+  # suspension, so those lifts take seed 004's multi-rrt. The rest take the default planner.
+  planner=()
+  if grep -q '^dual_crane:' "$scenario"; then planner=(--planner multi-rrt); fi
+  echo "=== mgc-plan --scenario $rel ${planner[*]} --json build/demo/$name.json"
+  "$bin/mgc-plan" --scenario "$scenario" "${planner[@]}" --json "$out/$name.json" || status=$?
   if grep -q '^work_cycle:' "$scenario"; then
     echo "=== mgc-plan --scenario $rel --planner nonuniform --cycle --json build/demo/$name-cycle.json"
     "$bin/mgc-plan" --scenario "$scenario" --planner nonuniform --cycle --json "$out/$name-cycle.json" || status=$?

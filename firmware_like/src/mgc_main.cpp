@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
   int fifo_priority = 0;
   bool lock_memory = false;
   std::string trace_csv;
-  std::string replanner = "drrt";
+  std::string replanner{mgc::planning::kDefaultReplanner};
   //! mgc-sim's valves have a 3 % deadband (docs/simulator.md); a real machine's is its valve calibration. [%]
   double valve_deadband_pct = 3.0;
   bool quiet = false;
@@ -82,7 +82,9 @@ int main(int argc, char** argv) {
   app.add_option("--fifo-priority", fifo_priority, "SCHED_FIFO priority 1..99 when permitted (0: off)")->check(CLI::Range(0, 99));
   app.add_flag("--mlock", lock_memory, "lock the process's memory (mlockall) when permitted");
   app.add_option("--trace-csv", trace_csv, "write the controller's view at 10 Hz here (CSV; mgc-plan --trace draws it)");
-  app.add_option("--replanner", replanner, "re-planner: drrt, drrt-rrt, drrt-con-con-mod")->capture_default_str();
+  std::string replanners;
+  for (auto n : mgc::planning::replanner_names()) replanners += (replanners.empty() ? "" : ", ") + std::string(n);
+  app.add_option("--replanner", replanner, "re-planner: " + replanners)->capture_default_str();
   app.add_option("--valve-deadband-pct", valve_deadband_pct,
                  "the valves' deadband as calibrated, % of spool travel: commands are mapped past it (docs/protocol.md)")
       ->capture_default_str()

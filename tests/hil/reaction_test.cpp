@@ -32,12 +32,15 @@ struct StopCycle {
   std::string transitions;
 };
 
-//! The lift of controller_test.cpp, crane 2 swinging into the west route, up to the first safety
-//! stop; SimRig::run's loop with the cycle's three calls timed as the mgc binary makes them.
+//! The lift of controller_test.cpp, crane 2 swinging into the west route (the route of the
+//! thesis's DRRT; the default re-planner's passes over the frame), up to the first safety stop;
+//! SimRig::run's loop with the cycle's three calls timed as the mgc binary makes them.
 StopCycle run_to_stop(sim::SimConfig config, const std::string& name) {
   SimRig rig("thesis-steel-frame.yaml", config, name);
   rig.calibrate_valves();
-  firmware::Controller controller(rig.scenario, firmware::ControllerConfig{});
+  firmware::ControllerConfig controller_config;
+  controller_config.replanner = "drrt";
+  firmware::Controller controller(rig.scenario, controller_config);
   StopCycle r;
   bool requested = false;
   const std::int64_t end_us = SimRig::at_sim_s(150.0);

@@ -29,14 +29,17 @@ expect_bad "goal in collision" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasibl
   --scenario "$tmp/goal-in-frame.yaml" --check
 
 expect_bad "missing file" "^$tmp/none.yaml: cannot open the file" --scenario "$tmp/none.yaml" --check
-expect_bad "no mode" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml"
-expect_bad "both modes" "give either --check or --planner" --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --planner limcon
-expect_bad "unknown planner" "^mgc-plan: --planner: expected one of limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic, cart-rrt, multi-rrt, got 'bogus'$" \
+expect_bad "both modes" "give either --check or --planner NAME, not both" --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --planner limcon
+expect_bad "unknown planner" "^mgc-plan: --planner: expected one of axis-connect, limcon, rrt, rrt-connect, rrt-ext-con, rrt-ext-ext, con-con-mod, anytime, nonuniform, rrt-basic, cart-rrt, multi-rrt, got 'bogus'$" \
   --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner bogus
 expect_bad "zero iterations" "^mgc-plan: --max-iterations: expected a number above 0, got '0' \\(see --help\\)$" \
   --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner limcon --max-iterations 0
 expect_bad "planning from an infeasible goal" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasible" \
   --scenario "$tmp/goal-in-frame.yaml" --planner limcon
+
+# Without --planner it plans with the default one-joint-at-a-time planner.
+"$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" >"$tmp/out" 2>"$tmp/err" || fail "default planner: exit $?: $(cat "$tmp/err")"
+grep -q "^axis-connect thesis-steel-frame seed 0: solved" "$tmp/out" || fail "default planner: not axis-connect: $(head -1 "$tmp/out")"
 
 # Planning: exit 0 with the JSON's required keys; exit 1 when the limits are too tight.
 "$plan" --scenario "$root/scenarios/thesis-steel-frame.yaml" --planner limcon --seed 3 --json "$tmp/plan.json" >"$tmp/out" 2>"$tmp/err"

@@ -708,19 +708,23 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
   }
   const std::vector<PlannerSpec> frame_specs = {
       ours_spec("limcon", "limcon"), ours_spec("rrt", "rrt", 20000), ours_spec("rrt-connect", "rrt-connect"),
-      ompl_spec(OmplPlanner::RrtConnect), ompl_spec(OmplPlanner::Rrt), ompl_spec(OmplPlanner::BitStar)};
+      ompl_spec(OmplPlanner::RrtConnect), ompl_spec(OmplPlanner::Rrt), ompl_spec(OmplPlanner::BitStar),
+      ours_spec(std::string(kDefaultPlanner), std::string(kDefaultPlanner))};
   constexpr int kPairedRounds = 7;
   const int paired_ticks = have_ompl() ? runs * kPairedRounds : 0;
   RunLog log;
   std::vector<Summary> frame_columns;
   Summary tower_limcon;
+  Summary tower_default;
   PairedTiming paired;
   {
-    Progress progress(suite, runs * static_cast<int>(frame_specs.size() + 1) + paired_ticks);
+    Progress progress(suite, runs * static_cast<int>(frame_specs.size() + 2) + paired_ticks);
     for (const PlannerSpec& spec : frame_specs) {
       frame_columns.push_back(summarize(spec.header, run_case(frame, spec, options, runs, suite, log, progress)));
     }
     tower_limcon = summarize("limcon", run_case(tower, ours_spec("limcon", "limcon"), options, runs, suite, log, progress));
+    const PlannerSpec default_spec = ours_spec(std::string(kDefaultPlanner), std::string(kDefaultPlanner));
+    tower_default = summarize(default_spec.header, run_case(tower, default_spec, options, runs, suite, log, progress));
     if (have_ompl()) paired = run_paired(frame, options, runs, kPairedRounds, progress);
   }
 
@@ -744,7 +748,7 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
         "`--runs " + std::to_string(runs) + " --seed " + std::to_string(options.first_seed) +
         "`. Paper: means over 50 seeds on a Core2Duo T5550 1.83 GHz.\n\n";
   md += "#### thesis-steel-frame.yaml\n\n" + planning_table(rows, frame_columns, frame_paper);
-  md += "\n#### thesis-steel-frame-tower.yaml\n\n" + planning_table(rows, {tower_limcon}, tower_paper);
+  md += "\n#### thesis-steel-frame-tower.yaml\n\n" + planning_table(rows, {tower_limcon, tower_default}, tower_paper);
   md += "\nTimes over successful runs; the rest are means over successful runs. DoF switches: fewest changes of joint "
         "when every edge is driven one joint at a time (a multi-joint edge counts one move per joint). Execution time: "
         "one joint at a time at full speed. Simplified: ours by smooth_path (single-axis shortcuts, 50 attempts), "
@@ -758,11 +762,21 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
 
   int recheck = 0;
   for (const Summary& c : frame_columns) recheck += c.recheck_failures;
-  recheck += tower_limcon.recheck_failures;
+  recheck += tower_limcon.recheck_failures + tower_default.recheck_failures;
   if (recheck > 0) md += "\n**Dense re-check: " + std::to_string(recheck) + " edge(s) FAILED (see stderr).**\n";
 
   const Summary& limcon = frame_columns[0];
   const Summary& connect = frame_columns[3];
+  const Summary& default_planner = frame_columns.back();
+  // The default planner on the thesis site: no slower than limcon, the thesis's planner, in the
+  // same run, and every edge one joint.
+  const bool default_met = default_planner.successes == default_planner.runs && default_planner.raw.multi_joint_edges == 0.0 &&
+                           median_ms(default_planner) <= median_ms(limcon);
+  md += "\nDefault planner target, this run: `" + std::string(kDefaultPlanner) + "` on the thesis site, median " +
+        fixed(median_ms(default_planner), 3) + " ms against `limcon`'s " + fixed(median_ms(limcon), 3) + " ms (" +
+        ratio_text(median_ms(limcon), median_ms(default_planner)) + " limcon's / ours; target: no slower), solved " +
+        std::to_string(default_planner.successes) + "/" + std::to_string(default_planner.runs) +
+        ", multi-joint edges per path " + fixed(default_planner.raw.multi_joint_edges, 2) + " (target 0): " + verdict(default_met) + ".\n";
   if (!have_ompl()) {
     md += "\nIssue 5 targets: cannot be checked, OMPL not built.\n";
   } else {

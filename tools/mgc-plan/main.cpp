@@ -295,7 +295,7 @@ int main(int argc, char** argv) {
   app.add_flag("--check", check, "validate the scenario and report whether start and goal are feasible");
   std::string planner_list;
   for (auto n : mgc::planning::planner_names()) planner_list += (planner_list.empty() ? "" : ", ") + std::string(n);
-  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: " + planner_list);
+  auto* planner_option = app.add_option("--planner", options.planner, "plan with this planner: " + planner_list + " (default: " + std::string(mgc::planning::kDefaultPlanner) + ")");
   auto* seed_option = app.add_option("--seed", seed, "random seed (default: the scenario's)");
   auto* iterations_option =
       app.add_option("--max-iterations", max_iterations, "iteration cap (default: the scenario's)")->check(mgc::tools::positive_number());
@@ -336,10 +336,11 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (check == (planner_option->count() > 0)) {
-    std::fprintf(stderr, "mgc-plan: give either --check or --planner NAME (see --help)\n");
+  if (check && planner_option->count() > 0) {
+    std::fprintf(stderr, "mgc-plan: give either --check or --planner NAME, not both (see --help)\n");
     return 2;
   }
+  if (!check && planner_option->count() == 0) options.planner = mgc::planning::kDefaultPlanner;
   if (cycle && (check || options.planner != "nonuniform")) {
     std::fprintf(stderr, "mgc-plan: --cycle: expected --planner nonuniform (seed 003's subtask rules), got %s\n",
                  check ? "--check" : ("--planner " + options.planner).c_str());

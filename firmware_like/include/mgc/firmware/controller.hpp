@@ -32,7 +32,7 @@
 namespace mgc::firmware {
 
 struct ControllerConfig {
-  std::string replanner = "drrt";  //!< make_replanner() name
+  std::string replanner{planning::kDefaultReplanner};  //!< make_replanner() name
   //! Planner iterations per cycle while planning or re-planning: bounded work in the cycle, the
   //! query spread over cycles. [-]
   int plan_iterations_per_cycle = 10;
