@@ -31,18 +31,19 @@ PlannerStatus AxisConnectPlanner::reset(const PlanningProblem& problem) {
   checks_at_reset_ = problem.world->collision_checks();
   path_.clear();
   const int dof = problem.model->dof();
-  // An iteration adds at most two corners per joint to each tree (a move and its second pass),
-  // and the connect attempt one staircase more.
-  const auto per_iteration = static_cast<std::size_t>(3 * dof);
-  const auto capacity = problem.node_capacity > 0 ? static_cast<std::size_t>(problem.node_capacity)
-                                                  : static_cast<std::size_t>(problem.max_iterations + 1) * per_iteration + 1;
+  // An iteration adds at most two corners per joint to a tree (a move and its second pass); the
+  // direct staircase of the first one, one per joint.
+  const auto per_iteration = static_cast<std::size_t>(2 * dof);
+  const auto capacity = problem.node_capacity > 0
+                            ? static_cast<std::size_t>(problem.node_capacity)
+                            : static_cast<std::size_t>(problem.max_iterations) * per_iteration + static_cast<std::size_t>(dof) + 1;
   start_tree_.reset(capacity);
   goal_tree_.reset(capacity);
   path_.reserve(2 * capacity);
   for (JointVector& s : stairs_) s = JointVector::Zero(dof);
   // The shortener holds the joined path and the stairs it puts in; a path longer than this (it
   // has never come near) is kept as it is.
-  constexpr std::size_t kMaxShortenedNodes = 4096;
+  constexpr std::size_t kMaxShortenedNodes = 1024;
   const std::size_t shortener_capacity = std::min(2 * capacity, kMaxShortenedNodes);
   if (shorten_ && (!shortener_ || shortener_capacity_ < shortener_capacity)) {
     shortener_capacity_ = shortener_capacity;
