@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numbers>
 
 namespace mgc::planning {
 
@@ -212,8 +213,21 @@ bool SingleAxisTreePlanner::limited_connect() noexcept {
   const double steps_in_range = problem_->model->joints()[static_cast<std::size_t>(input / 2)].range() /
                                 problem_->step[input / 2];
   const int max_run = static_cast<int>(std::ceil(steps_in_range)) + 2;
+  // The run is validated step by step, but stored as one edge, which goes the shorter way round: a
+  // continuous joint's run must stay short of half a turn, or the edge would turn the other way
+  // (through what no step checked).
+  const int j = input / 2;
+  const bool continuous = problem_->model->joints()[static_cast<std::size_t>(j)].continuous;
+  const JointVector& from = tree_.node(near);
+  const auto within_half_turn = [&](const JointVector& q) {
+    constexpr double kMarginRad = 1e-6;
+    return !continuous || std::abs(problem_->model->difference(from, q)[j]) < std::numbers::pi - kMarginRad;
+  };
+  if (!within_half_turn(next)) return true;
   bool first = true;
-  for (int run = 0; run < max_run && d <= d_prev && d_goal < d_last_goal && (first || valid_step(last, next)); ++run) {
+  for (int run = 0; run < max_run && d <= d_prev && d_goal < d_last_goal && within_half_turn(next) &&
+                    (first || valid_step(last, next));
+       ++run) {
     first = false;
     last = next;
     d_prev = d;
