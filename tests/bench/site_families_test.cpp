@@ -1,0 +1,100 @@
+// SPDX-License-Identifier: Apache-2.0
+// The site generator (tools/mgc-bench/site_families.hpp): every family's start and goal are what
+// the family promises, in the world mgc-plan builds from the written file.
+
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/io/scenario_loader.hpp"
+#include "site_families.hpp"
+
+namespace {
+
+using mgc::bench::SiteExpectation;
+using mgc::planning::Validity;
+
+const std::filesystem::path kMachines = std::filesystem::path(MGC_SOURCE_DIR) / "scenarios" / "machines";
+
+std::filesystem::path fresh_folder(const std::string& name) {
+  const auto folder = std::filesystem::temp_directory_path() / ("mgc-site-families-" + name + "-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(folder);
+  std::filesystem::create_directories(folder);
+  return folder;
+}
+
+std::string read(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+}  // namespace
+
+TEST_CASE("every site family keeps its promise about start and goal, for several seeds") {
+  const auto folder = fresh_folder("promise");
+  for (const auto& family : mgc::bench::site_families()) {
+    for (std::uint64_t seed = 0; seed < 5; ++seed) {
+      INFO(family.name << " seed " << seed);
+      const auto site = mgc::bench::generate_site(family, seed, kMachines, folder);
+      auto loaded = mgc::planning::io::load_and_build(site.file);
+      const Validity start = loaded.world->validate(loaded.scenario.start);
+      const Validity goal = loaded.world->validate(loaded.scenario.goal);
+      INFO("start: " << loaded.world->describe(start) << "; goal: " << loaded.world->describe(goal));
+      CHECK(start.valid());
+      if (family.expectation == SiteExpectation::ChartInfeasible) {
+        // Refused by the chart's row for the 110-ft boom, the last row, not by a collision.
+        CHECK(goal.status == Validity::Status::Constraint);
+        CHECK(goal.constraint.chart_row == static_cast<int>(loaded.scenario.machine.load_chart->boom_lengths_ft.size()) - 1);
+        const auto errors = mgc::planning::io::check_endpoints(loaded);
+        REQUIRE(errors.size() == 1);
+        CHECK(std::string(errors.front().what()).find("load-chart row 110 ft boom") != std::string::npos);
+      } else {
+        CHECK(goal.valid());
+        CHECK(mgc::planning::io::check_endpoints(loaded).empty());
+      }
+    }
+  }
+  std::filesystem::remove_all(folder);
+}
+
+TEST_CASE("the same family and seed give the same file byte for byte, another seed another site") {
+  const auto a = fresh_folder("a");
+  const auto b = fresh_folder("b");
+  for (const auto& family : mgc::bench::site_families()) {
+    INFO(family.name);
+    const auto first = mgc::bench::generate_site(family, 7, kMachines, a);
+    const auto again = mgc::bench::generate_site(family, 7, kMachines, b);
+    const auto other = mgc::bench::generate_site(family, 8, kMachines, b);
+    CHECK(read(first.file) == read(again.file));
+    CHECK(first.draws == again.draws);
+    CHECK(read(first.file) != read(other.file));
+    // The copied machine file is what the scenario names, so the folder replays on its own.
+    CHECK(read(a / "machines" / family.machine) == read(kMachines / family.machine));
+  }
+  std::filesystem::remove_all(a);
+  std::filesystem::remove_all(b);
+}
+
+TEST_CASE("families cover the three machines, and the unsolvable ones are marked") {
+  int crane = 0, tower = 0, excavator = 0, chart = 0, walled = 0;
+  for (const auto& f : mgc::bench::site_families()) {
+    crane += f.machine == "grove-tms870.yaml";
+    tower += f.machine == "pecco-sk180.yaml";
+    excavator += f.machine == "cat-320.yaml";
+    chart += f.expectation == SiteExpectation::ChartInfeasible;
+    walled += f.expectation == SiteExpectation::WalledIn;
+    CHECK(mgc::bench::find_site_family(f.name) == &f);
+  }
+  CHECK(crane >= 10);
+  CHECK(tower >= 4);
+  CHECK(excavator >= 5);
+  CHECK(chart == 1);
+  CHECK(walled == 1);
+  CHECK(mgc::bench::find_site_family("no-such-family") == nullptr);
+}
