@@ -24,6 +24,7 @@
 #include "loop_bench.hpp"
 #include "planning_bench.hpp"
 #include "safety_bench.hpp"
+#include "sites_bench.hpp"
 #include "trajectory_bench.hpp"
 #include "replan_bench.hpp"
 #include "zhang_bench.hpp"
@@ -39,6 +40,7 @@ const std::vector<std::pair<std::string, PlanningSuite>>& planning_suites() {
       {"zhang", mgc::bench::run_zhang_suite},
       {"replan", mgc::bench::run_replan_suite},
       {"langari", mgc::bench::run_langari_suite},
+      {"sites", mgc::bench::run_sites_suite},
   };
   return all;
 }
@@ -53,17 +55,20 @@ int main(int argc, char** argv) {
   std::string out_dir;
   std::string scenarios_dir = "scenarios";
   std::string names;
+  std::vector<std::string> site_families;
   int bus_samples = 1500;
   int trajectory_cases = 100000;
   mgc::bench::LoopBenchOptions loop;
   mgc::bench::OmplOptions ompl;
   for (const auto& [name, run] : planning_suites()) names += std::string(names.empty() ? "" : ", ") + name;
-  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), all (the seed papers' suites: thesis, zhang, langari, kim), bus (fieldbus), trajectory, safety or loop (control cycle)");
-  app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51; kim 100)")
+  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), all (thesis, zhang, langari, sites, kim), bus (fieldbus), trajectory, safety or loop (control cycle)");
+  app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51; kim 100); sites: seeds per site (6)")
       ->check(mgc::tools::positive_number());
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
   app.add_option("--out", out_dir, "write <suite>.csv (every run), <suite>.json and <suite>.md (the tables) here");
   app.add_option("--scenarios", scenarios_dir, "folder of the shipped scenarios");
+  app.add_option("--families", site_families, "sites suite: only these site families (docs/sites.md), comma-separated")
+      ->delimiter(',');
   app.add_option("--bus-samples", bus_samples, "bus suite: SYNC round trips per latency case")->check(mgc::tools::positive_number());
   app.add_option("--trajectory-cases", trajectory_cases, "trajectory suite: calculations per case")->check(mgc::tools::positive_number());
   app.add_option("--loop-cycles", loop.cycles, "loop suite: timed controller cycles at 100 Hz")->check(mgc::tools::positive_number());
@@ -129,7 +134,7 @@ int main(int argc, char** argv) {
     if (!mgc::bench::seed_ompl(static_cast<std::uint32_t>(first_seed))) {
       std::fprintf(stderr, "mgc-bench: OMPL refused the global seed; BIT* runs will not repeat\n");
     }
-    const mgc::bench::PlanningBenchOptions options{scenarios_dir, out_dir, runs, first_seed, ompl};
+    const mgc::bench::PlanningBenchOptions options{scenarios_dir, out_dir, runs, first_seed, ompl, site_families};
     const auto t0 = std::chrono::steady_clock::now();
     int exit_code = 0;
     for (const auto& [name, run] : chosen) {

@@ -21,6 +21,13 @@ namespace mgc::bench {
 
 using namespace mgc::planning;
 
+std::string fixed(double value, int digits) {
+  if (!std::isfinite(value)) return "-";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
+  return buffer;
+}
+
 namespace {
 
 double now_s() {
@@ -66,12 +73,6 @@ int sequential_switches(const MachineModel& model, const std::vector<JointVector
   return started ? *std::min_element(best.begin(), best.end()) : 0;
 }
 
-std::string fixed(double value, int digits) {
-  if (!std::isfinite(value)) return "-";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  return buffer;
-}
 
 void quality_csv(std::ostream& out, const PathQuality& q) {
   out << q.nodes << ',' << q.dof_switches << ',' << q.sequential_switches << ',' << q.multi_joint_edges << ',' << q.exec_s
@@ -584,9 +585,6 @@ std::vector<RunRecord> run_case(BenchScenario& s, const PlannerSpec& spec, const
   return records;
 }
 
-namespace {
-
-//! numerator / denominator to two places; "n/a" without figures on both sides.
 std::string ratio_text(double numerator, double denominator) {
   if (!std::isfinite(numerator) || !std::isfinite(denominator)) return "n/a";
   if (denominator == 0.0) return numerator == 0.0 ? "1 (both 0)" : "unbounded (0 against " + fixed(numerator, 2) + ")";
@@ -594,6 +592,8 @@ std::string ratio_text(double numerator, double denominator) {
 }
 
 const char* verdict(bool met) { return met ? "**met**" : "**not met**"; }
+
+namespace {
 
 //! The speed target measured in pairs. The tables run each planner's seeds one block after
 //! another, so a change in this shared machine's load between blocks moves their ratio (1.04 to

@@ -32,6 +32,7 @@ struct PlanningBenchOptions {
   int runs = 0;         //!< seeds per case; 0: the suite's own (the paper's count)
   std::uint64_t first_seed = 0;
   OmplOptions ompl;
+  std::vector<std::string> site_families;  //!< sites suite: the families to run; empty: all
 };
 
 //! Quality of one path by our metrics.
@@ -147,6 +148,13 @@ struct Summary {
 };
 
 [[nodiscard]] Summary summarize(const std::string& header, const std::vector<RunRecord>& runs);
+
+//! value to `digits` places; "-" when not finite.
+[[nodiscard]] std::string fixed(double value, int digits);
+//! numerator / denominator to two places; "n/a" without figures on both sides.
+[[nodiscard]] std::string ratio_text(double numerator, double denominator);
+//! "**met**" or "**not met**", for the target lines.
+[[nodiscard]] const char* verdict(bool met);
 
 [[nodiscard]] double percentile(std::vector<double> values, double p);
 [[nodiscard]] double mean(const std::vector<double>& values);

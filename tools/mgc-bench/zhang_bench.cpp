@@ -64,13 +64,6 @@ SweepRun sweep_run(BenchScenario& s, std::uint64_t seed, int gamma_index) {
   return r;
 }
 
-std::string fixed(double value, int digits) {
-  if (!std::isfinite(value)) return "-";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  return buffer;
-}
-
 //! A markdown table from a header row and body rows.
 std::string markdown(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
   std::string out = "|";
