@@ -98,3 +98,26 @@ TEST_CASE("families cover the three machines, and the unsolvable ones are marked
   CHECK(walled == 1);
   CHECK(mgc::bench::find_site_family("no-such-family") == nullptr);
 }
+
+TEST_CASE("an intruder site is the same site with a second machine that starts clear of start and goal") {
+  const auto folder = fresh_folder("intruder");
+  for (const auto& family : mgc::bench::site_families()) {
+    if (family.expectation != SiteExpectation::Solvable) continue;
+    for (std::uint64_t seed = 0; seed < 3; ++seed) {
+      INFO(family.name << " seed " << seed);
+      const auto plain = mgc::bench::generate_site(family, seed, kMachines, folder);
+      const auto site = mgc::bench::generate_intruder_site(family, seed, kMachines, folder);
+      CHECK(site.file.filename().string() == family.name + "-s" + std::to_string(seed) + "-intruder.yaml");
+      auto loaded = mgc::planning::io::load_and_build(site.file);
+      auto base = mgc::planning::io::load_and_build(plain.file);
+      REQUIRE(loaded.scenario.dynamic_obstacles.size() == 1);
+      CHECK(loaded.world->num_static() == base.world->num_static());
+      CHECK(mgc::planning::io::check_endpoints(loaded).empty());
+      // It parks somewhere else than it starts: it drives in.
+      const auto& motion = loaded.scenario.dynamic_obstacles.front().motion;
+      REQUIRE(motion.size() == 3);
+      CHECK((motion.back().position_m - motion.front().position_m).norm() > 15.0);
+    }
+  }
+  std::filesystem::remove_all(folder);
+}

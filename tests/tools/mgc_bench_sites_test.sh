@@ -30,7 +30,11 @@ grep -q "^| crane-walled-in | rrt-connect | 3 | 3 |" "$tmp/a/sites.md" || fail "
 grep -q "naming the load-chart row (mgc-plan exits 2 with it): 3/3" "$tmp/a/sites.md" || fail "the chart rows are not named"
 grep -q "^Targets\\|^#### Targets of the default one-joint-at-a-time planner \`axis-connect\`" "$tmp/a/sites.md" ||
   fail "sites.md has no target block for axis-connect"
-[ "$(ls "$tmp/a/sites"/*.yaml | wc -l)" -eq 12 ] || fail "expected 12 generated sites, got $(ls "$tmp/a/sites")"
+[ "$(ls "$tmp/a/sites"/*-s[0-2].yaml | wc -l)" -eq 12 ] || fail "expected 12 generated sites, got $(ls "$tmp/a/sites")"
+# One intruder site per solvable family, for the re-planning table.
+[ "$(ls "$tmp/a/sites"/*-intruder.yaml | wc -l)" -eq 2 ] || fail "expected 2 intruder sites, got $(ls "$tmp/a/sites")"
+grep -q "^#### Re-planning on generated sites with a second machine intruding" "$tmp/a/sites.md" || fail "sites.md has no re-planning table"
+grep -q "^| drrt-con-con-mod | excavator | [0-9]*/1 |" "$tmp/a/sites.md" || fail "the re-planning table has no drrt-con-con-mod excavator row"
 [ -s "$tmp/a/sites/machines/grove-tms870.yaml" ] || fail "the machine files are not beside the sites"
 # Every CSV row names a generated file, a planner and a seed: enough to replay it.
 [ "$(grep -c '^sites,tower-trolley-slew-s[0-2]\.yaml,rrt-connect,0,' "$tmp/a/sites.csv")" -eq 3 ] ||
@@ -42,6 +46,10 @@ grep -q "^Targets\\|^#### Targets of the default one-joint-at-a-time planner \`a
 [ "$(grep -c "feasible, clearance" "$tmp/out")" -eq 2 ] || fail "--check does not find start and goal feasible: $(cat "$tmp/out")"
 "$plan" --scenario "$tmp/a/sites/tower-trolley-slew-s0.yaml" --planner rrt-connect --seed 3 >"$tmp/out" 2>"$tmp/err" ||
   fail "rrt-connect on a generated solvable site: exit $?: $(cat "$tmp/out" "$tmp/err")"
+
+"$plan" --check --scenario "$tmp/a/sites/exc-hopper-s0-intruder.yaml" >"$tmp/out" 2>"$tmp/err" ||
+  fail "mgc-plan --check on an intruder site: exit $?: $(cat "$tmp/err")"
+grep -q "^obstacles .* 1 dynamic" "$tmp/out" || fail "the intruder site has no dynamic obstacle: $(cat "$tmp/out")"
 
 # The walled-in site: no path, exit 1 once the file's iteration cap is spent.
 "$plan" --scenario "$tmp/a/sites/crane-walled-in-s0.yaml" --planner rrt-connect --seed 0 >"$tmp/out" 2>"$tmp/err"

@@ -17,6 +17,7 @@
 #include "mgc/planning/io/input_error.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/load_chart.hpp"
+#include "mgc/planning/machine_model.hpp"
 
 namespace mgc::bench {
 
@@ -103,6 +104,7 @@ struct Draft {
   std::string task;       //!< the `task:` section's lines, cranes only
   std::string obstacles;  //!< list items
   std::string start, goal;
+  std::string dynamic;    //!< the `dynamic_obstacles:` list items, if any
 };
 
 void box(Draft& d, const std::string& name, std::array<double, 3> size, std::array<double, 3> centre,
@@ -633,6 +635,7 @@ std::string scenario_text(const SiteFamily& family, std::uint64_t seed, const st
           "\nbase:\n  position_m: [0, 0, 0]\n  yaw_deg: 0\n";
   if (!d.task.empty()) text += "task:\n" + d.task;
   text += d.obstacles.empty() ? "obstacles: []\n" : "obstacles:\n" + d.obstacles;
+  if (!d.dynamic.empty()) text += "dynamic_obstacles:\n" + d.dynamic;
   text += "start:\n" + d.start + "goal:\n" + d.goal;
   text += "planner:\n  seed: 0\n  max_iterations: " + std::to_string(kSiteMaxIterations) +
           "\n  goal_bias: 0.1\n  space_resolution: " + std::string(tower ? "150" : excavator ? "100" : "50") +
@@ -650,6 +653,59 @@ void write_text(const std::filesystem::path& file, const std::string& text) {
   out << text;
   out.close();
   if (!out) throw std::runtime_error(file.string() + ": cannot write the generated site");
+}
+
+//! The tool point (hook, bucket tip) of q in the world.
+Eigen::Vector3d tool_point(const planning::MachineModel& model, const planning::JointVector& q) {
+  planning::Kinematics k;
+  model.forward_kinematics(q, k);
+  const int i = model.key_point_index(model.kind() == planning::MachineKind::Excavator ? "bucket_tip" : "hook");
+  return k.points[static_cast<std::size_t>(i)];
+}
+
+//! A second machine that drives in and parks on the bearing halfway between the start's and the
+//! goal's tool points (generate_intruder_site).
+void add_intruder(SiteRng& rng, const planning::io::LoadedScenario& loaded, Draft& d) {
+  const planning::MachineModel& model = *loaded.model;
+  const Eigen::Vector3d a = tool_point(model, loaded.scenario.start), b = tool_point(model, loaded.scenario.goal);
+  const double ra = std::hypot(a.x(), a.y()), rb = std::hypot(b.x(), b.y());
+  Eigen::Vector2d mid(a.x() / std::max(ra, 1e-9) + b.x() / std::max(rb, 1e-9), a.y() / std::max(ra, 1e-9) + b.y() / std::max(rb, 1e-9));
+  // Start and goal opposite each other: the halfway bearing either side, drawn.
+  if (mid.norm() < 0.1) mid = rng.sign() * Eigen::Vector2d(-a.y(), a.x());
+  const double bearing = std::atan2(mid.y(), mid.x());
+  const bool excavator = model.kind() == planning::MachineKind::Excavator;
+  const bool tower = model.kind() == planning::MachineKind::TowerCrane;
+  // It drives along the tangent at the parking point, so it passes the machine's own body (the
+  // excavator's house swings within 3.2 m, the crane's carrier reaches 8.5 m) and stops across the
+  // tool's way between pick and set-down.
+  const double park_r = std::max(0.5 * (ra + rb), excavator ? 5.0 : tower ? 8.0 : 10.0);
+  const double from_r = excavator ? 18.0 : tower ? 68.0 : 45.0;
+  const double approach = bearing + rng.sign() * 0.5 * std::numbers::pi;
+  const double px = park_r * std::cos(bearing), py = park_r * std::sin(bearing);
+  const double fx = px + from_r * std::cos(approach), fy = py + from_r * std::sin(approach);
+  const double heading = std::atan2(py - fy, px - fx) / kDeg;
+  const double speed = excavator ? 4.0 : 2.0;  // m/s: a tipper on site, a crane driving in
+  const double drive_s = from_r / speed;
+  // Half a second parked at the start at least: the script's times rise strictly.
+  const double arrive_s = drive_s + 0.5 + (excavator ? rng.uniform(0.0, 2.0) : rng.uniform(0.0, 30.0));
+  if (excavator) {
+    d.dynamic += "  - name: truck-2\n    parts:\n"
+                 "      - {type: box, size_m: [4.6, 2.5, 2.6], position_m: [-1.0, 0, 1.9]}\n"
+                 "      - {type: box, size_m: [2.0, 2.5, 3.2], position_m: [2.4, 0, 1.6]}\n"
+                 "      - {type: box, size_m: [6.8, 2.3, 0.6], position_m: [0.0, 0, 0.6]}\n";
+  } else {
+    // A mobile crane with its 16 m boom raised at 45 deg over the cab, hook and load at 10 m.
+    d.dynamic += "  - name: crane-2\n    parts:\n"
+                 "      - {type: box, size_m: [10.0, 2.6, 3.0], position_m: [0, 0, 1.5]}\n"
+                 "      - {type: box, size_m: [16.0, 0.9, 1.1], position_m: [5.66, 0, 8.66], rpy_deg: [0, -45, 0]}\n"
+                 "      - {type: capsule, radius_m: 0.1, length_m: 4.0, position_m: [11.31, 0, 12.31]}\n"
+                 "      - {type: box, size_m: [2.0, 2.0, 2.0], position_m: [11.31, 0, 9.31]}\n";
+  }
+  d.dynamic += "    motion:\n      - {t_s: 0, position_m: " + vec(fx, fy, 0.0) + ", yaw_deg: " + num(heading) + "}\n" +
+               "      - {t_s: " + num(arrive_s - drive_s) + ", position_m: " + vec(fx, fy, 0.0) + ", yaw_deg: " + num(heading) + "}\n" +
+               "      - {t_s: " + num(arrive_s) + ", position_m: " + vec(px, py, 0.0) + ", yaw_deg: " + num(heading) + "}\n";
+  d.comment += "; " + std::string(excavator ? "a truck" : "a second crane") + " drives in " + num(from_r) + " m and parks at " +
+               num(arrive_s) + " s, " + num(park_r) + " m out on the bearing between pick and set-down";
 }
 
 bool meets(SiteExpectation expectation, planning::io::LoadedScenario& loaded) {
@@ -687,8 +743,10 @@ const SiteFamily* find_site_family(const std::string& name) {
   return nullptr;
 }
 
-GeneratedSite generate_site(const SiteFamily& family, std::uint64_t seed, const std::filesystem::path& machines_dir,
-                            const std::filesystem::path& out_dir) {
+namespace {
+
+GeneratedSite generate(const SiteFamily& family, std::uint64_t seed, const std::filesystem::path& machines_dir,
+                       const std::filesystem::path& out_dir, bool with_intruder) {
   const FamilyEntry& entry = entry_of(family);
   const std::filesystem::path machine_source = machines_dir / family.machine;
   const std::filesystem::path machine_copy = out_dir / "machines" / family.machine;
@@ -703,7 +761,7 @@ GeneratedSite generate_site(const SiteFamily& family, std::uint64_t seed, const 
   GeneratedSite site;
   site.family = find_site_family(family.name);
   site.seed = seed;
-  const std::string name = family.name + "-s" + std::to_string(seed);
+  const std::string name = family.name + "-s" + std::to_string(seed) + (with_intruder ? "-intruder" : "");
   site.file = out_dir / (name + ".yaml");
   SiteRng rng(family_hash(family.name) ^ (seed * 0xD1B54A32D192ED03ULL));
   for (int draw = 1; draw <= kSiteMaxDraws; ++draw) {
@@ -719,12 +777,30 @@ GeneratedSite generate_site(const SiteFamily& family, std::uint64_t seed, const 
       throw;
     }
     if (!meets(family.expectation, loaded)) continue;
+    if (with_intruder) {
+      add_intruder(rng, loaded, d);
+      write_text(site.file, scenario_text(family, seed, name, d));
+      loaded = planning::io::load_and_build(site.file);
+      if (!meets(family.expectation, loaded)) continue;
+    }
     site.draws = draw;
     return site;
   }
   std::filesystem::remove(site.file, error);
   throw std::runtime_error("site family " + family.name + ", seed " + std::to_string(seed) + ": no draw of " +
                            std::to_string(kSiteMaxDraws) + " met its expectation (" + to_string(family.expectation) + ")");
+}
+
+}  // namespace
+
+GeneratedSite generate_site(const SiteFamily& family, std::uint64_t seed, const std::filesystem::path& machines_dir,
+                            const std::filesystem::path& out_dir) {
+  return generate(family, seed, machines_dir, out_dir, false);
+}
+
+GeneratedSite generate_intruder_site(const SiteFamily& family, std::uint64_t seed, const std::filesystem::path& machines_dir,
+                                     const std::filesystem::path& out_dir) {
+  return generate(family, seed, machines_dir, out_dir, true);
 }
 
 }  // namespace mgc::bench

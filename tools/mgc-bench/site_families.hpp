@@ -59,4 +59,17 @@ struct GeneratedSite {
                                           const std::filesystem::path& machines_dir,
                                           const std::filesystem::path& out_dir);
 
+//! The site of generate_site() with a second machine driving into the work: a mobile crane
+//! (carrier and raised boom) on the crane sites, a tipper truck on the excavator's. It drives in
+//! along the tangent (18 m for the truck, 45 m or 68 m for a crane) and parks on the bearing
+//! halfway between the start's and the goal's tool points (hook, bucket tip), at their mean
+//! radius but clear of the machine's own body (at least 5, 8 and 10 m out), arriving
+//! 0.5-30.5 s after it could (0.5-2.5 s for the truck at an excavator). Written as
+//! <out_dir>/<family>-s<seed>-intruder.yaml; start and goal are checked as generate_site checks
+//! them, with the intruder where it stands at the start. The same family and seed give the same
+//! file. Throws as generate_site does.
+[[nodiscard]] GeneratedSite generate_intruder_site(const SiteFamily& family, std::uint64_t seed,
+                                                   const std::filesystem::path& machines_dir,
+                                                   const std::filesystem::path& out_dir);
+
 }  // namespace mgc::bench

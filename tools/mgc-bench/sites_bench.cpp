@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -12,8 +13,11 @@
 #include <stdexcept>
 
 #include "json_writer.hpp"
+#include "mgc/planning/execution.hpp"
 #include "mgc/planning/io/input_error.hpp"
 #include "mgc/planning/planners/planner.hpp"
+#include "mgc/planning/planners/replanner.hpp"
+#include "replan_bench.hpp"
 #include "site_families.hpp"
 
 namespace mgc::bench {
@@ -68,6 +72,156 @@ std::filesystem::path sites_folder(const PlanningBenchOptions& options) {
   return std::filesystem::temp_directory_path() / ("mgc-bench-sites-" + std::to_string(::getpid()));
 }
 
+
+//! Re-planning figures of one re-planner on one machine's intruder sites.
+struct ReplanColumn {
+  int lifts = 0, arrived = 0, contact_lifts = 0;
+  int events = 0, solved = 0;
+  int covered = 0, covered_solved = 0;  //!< events where the intruder covered the machine or its goal
+  std::vector<double> repair_ms;        //!< events not covered
+};
+
+//! How far ahead the machine sees the intruder (replan_bench.cpp's horizons for the same machines). [s]
+double horizon_s(planning::MachineKind kind) {
+  switch (kind) {
+    case planning::MachineKind::TowerCrane: return 9.0;
+    case planning::MachineKind::Excavator: return 3.0;
+    default: return 6.0;
+  }
+}
+
+double wall_clock_ms() {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+struct ReplanTable {
+  std::string markdown;
+  std::vector<ReplanRow> rows;
+};
+
+//! Every re-planner through execute_with_replanning on one intruder site per solvable family.
+ReplanTable run_intruder_table(const PlanningBenchOptions& options, int seeds, const std::vector<const SiteFamily*>& families,
+                               const std::filesystem::path& folder, const std::filesystem::path& machines) {
+  using namespace mgc::planning;
+  ReplanTable out;
+  const std::vector<std::string_view> names = replanner_names();
+  std::vector<GeneratedSite> sites;
+  for (const SiteFamily* f : families) {
+    if (f->expectation == SiteExpectation::Solvable) sites.push_back(generate_intruder_site(*f, options.first_seed, machines, folder));
+  }
+  if (sites.empty()) return out;
+  constexpr int kMaxRepairs = 10;  // as the replan suite: a lift still blocked after this many counts as stuck
+  const char* kinds[] = {"mobile_crane", "tower_crane", "excavator"};
+  std::map<std::string, std::map<std::string, ReplanColumn>> table;  // [re-planner][machine]
+  {
+    Progress progress("sites re-planning", static_cast<int>(sites.size() * names.size()) * seeds);
+    for (const GeneratedSite& site : sites) {
+      io::LoadedScenario loaded = io::load_and_build(site.file);
+      const double horizon = horizon_s(loaded.model->kind());
+      loaded.world = build_world(loaded.scenario, *loaded.model, 0.0, static_cast<int>(std::lround(horizon)));
+      const std::string machine = to_string(loaded.model->kind());
+      ReplanSettings replan;
+      replan.max_iterations = loaded.scenario.planner.replan_max_iterations;
+      replan.goal_bias = loaded.scenario.planner.replan_goal_bias;
+      for (const std::string_view name : names) {
+        ReplanColumn& col = table[std::string(name)][machine];
+        for (int k = 0; k < seeds; ++k) {
+          PlanningProblem problem = planning_problem(loaded.scenario, *loaded.model, *loaded.world);
+          problem.seed = options.first_seed + static_cast<std::uint64_t>(k);
+          ExecutionSettings execution;
+          execution.prediction_horizon_s = horizon;
+          execution.max_repairs = kMaxRepairs;
+          execution.record_trajectory = false;
+          auto replanner = make_replanner(name);
+          const ExecutionResult r = execute_with_replanning(loaded.scenario, problem, *replanner, replan, execution, wall_clock_ms);
+          ++col.lifts;
+          col.arrived += r.outcome == ExecutionResult::Outcome::Arrived ? 1 : 0;
+          col.contact_lifts += r.contact_states > 0 ? 1 : 0;
+          ReplanRow lift;
+          lift.scenario = site.file.filename().string();
+          lift.replanner = std::string(name);
+          lift.seed = problem.seed;
+          lift.outcome = to_string(r.outcome);
+          lift.contact_states = r.contact_states;
+          lift.first_plan_ms = r.first_plan_ms;
+          if (r.repairs.empty()) out.rows.push_back(lift);
+          for (std::size_t e = 0; e < r.repairs.size(); ++e) {
+            const RepairEvent& ev = r.repairs[e];
+            const bool solved = ev.status == PlannerStatus::Solved;
+            // The intruder on the machine (its prediction still covering the machine after the
+            // retreat) or parked on the goal: no repair can help until it moves.
+            const bool covered = ev.predicted_start_conflict || ev.status == PlannerStatus::GoalOccupied;
+            ++col.events;
+            if (covered) {
+              ++col.covered;
+              col.covered_solved += solved ? 1 : 0;
+            } else {
+              col.solved += solved ? 1 : 0;
+              col.repair_ms.push_back(ev.compute_ms);
+            }
+            ReplanRow row = lift;
+            row.event = static_cast<int>(e);
+            row.event_t_s = ev.t_s;
+            row.status = to_string(ev.status);
+            row.repair_ms = ev.compute_ms;
+            row.iterations = ev.iterations;
+            row.invalidated_nodes = ev.invalidated_nodes;
+            row.bridge_attempts = ev.bridge_attempts;
+            row.path_nodes = ev.path_nodes;
+            row.escape_ms = ev.escape_ms;
+            row.retreat_s = ev.retreat_s;
+            row.escape_joint = ev.escape_joint;
+            out.rows.push_back(std::move(row));
+          }
+          progress.tick(lift.scenario + " " + lift.replanner);
+        }
+      }
+    }
+  }
+  std::string& md = out.markdown;
+  md += "\n#### Re-planning on generated sites with a second machine intruding\n\n"
+        "One intruder site per solvable family (site seed " + std::to_string(options.first_seed) +
+        ", files `<family>-s" + std::to_string(options.first_seed) +
+        "-intruder.yaml`): the site with a second crane (a tipper at the excavator) that drives in from outside the reach "
+        "and parks on the bearing halfway between pick and set-down (docs/sites.md). Each lift runs with "
+        "`execute_with_replanning` as the replan suite runs it (1/30 s ticks, predicted poses 1 s apart over 6 s for the "
+        "mobile crane, 9 s for the tower crane, 3 s for the excavator; at most " + std::to_string(kMaxRepairs) +
+        " repairs per lift), " + std::to_string(seeds) +
+        " seeds per site. Repair times over the events where the intruder did not cover the machine; those where it did "
+        "(its prediction still over the stopped machine, or parked on the goal) are counted apart.\n\n"
+        "| re-planner | machine | lifts completed | lifts an obstacle reached | events solved | repair median [ms] | repair p95 [ms] | events with the machine or goal covered (solved) |\n"
+        "|---|---|---|---|---|---|---|---|\n";
+  for (const std::string_view name : names) {
+    for (const char* kind : kinds) {
+      const auto it = table[std::string(name)].find(kind);
+      if (it == table[std::string(name)].end()) continue;
+      const ReplanColumn& c = it->second;
+      md += "| " + std::string(name) + " | " + kind + " | " + std::to_string(c.arrived) + "/" + std::to_string(c.lifts) + " | " +
+            std::to_string(c.contact_lifts) + " | " + std::to_string(c.solved) + "/" + std::to_string(c.events - c.covered) + " | " +
+            fixed(percentile(c.repair_ms, 0.5), 2) + " | " + fixed(percentile(c.repair_ms, 0.95), 2) + " | " +
+            std::to_string(c.covered) + " (" + std::to_string(c.covered_solved) + ") |\n";
+    }
+  }
+  md += "\nTargets of the default re-planner `" + std::string(kDefaultReplanner) + "`: ";
+  const auto def = table.find(kDefaultReplanner);
+  if (def == table.end()) {
+    md += "**not met**: it is not among this build's re-planners.\n";
+  } else {
+    ReplanColumn all;
+    for (const auto& [kind, c] : def->second) {
+      all.events += c.events;
+      all.covered += c.covered;
+      all.solved += c.solved;
+      all.repair_ms.insert(all.repair_ms.end(), c.repair_ms.begin(), c.repair_ms.end());
+    }
+    const double median = percentile(all.repair_ms, 0.5), p95 = percentile(all.repair_ms, 0.95);
+    md += "repair median " + fixed(median, 3) + " ms (target < 2): " + verdict(median < 2.0) + "; p95 " + fixed(p95, 3) +
+          " ms (target < 10): " + verdict(p95 < 10.0) + "; events solved " + std::to_string(all.solved) + "/" +
+          std::to_string(all.events - all.covered) + " (target all, the " + std::to_string(all.covered) +
+          " covered events apart): " + verdict(all.solved == all.events - all.covered) + ".\n";
+  }
+  return out;
+}
 }  // namespace
 
 int run_sites_suite(const PlanningBenchOptions& options, const std::string& command) {
@@ -253,8 +407,13 @@ int run_sites_suite(const PlanningBenchOptions& options, const std::string& comm
   if (unexpected_paths > 0) md += "\n**" + std::to_string(unexpected_paths) + " path(s) returned on unsolvable sites (see stderr).**\n";
   if (chart_rows_named < chart_sites) md += "\n**A chart-infeasible site's goal was not refused naming the load-chart row.**\n";
 
+  const ReplanTable replanning = run_intruder_table(options, std::min(seeds, kReplanSeedsPerSite), families, folder, machines);
+  md += replanning.markdown;
+
   std::printf("%s\n", md.c_str());
   write_suite_files(options, suite, command, md, log, [&](tools::JsonWriter& json) {
+    json.key("replan_events");
+    write_replan_json(json, replanning.rows);
     json.key("sites_folder").value(folder.string());
     json.key("default_planner").value(kDefaultPlanner);
     json.key("default_planner_targets_met").value(all_met);
