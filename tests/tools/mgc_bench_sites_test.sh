@@ -14,6 +14,8 @@ cd "$root" || exit 1
 families=crane-walled-in,crane-chart-infeasible,tower-trolley-slew,exc-hopper
 expect_bad "unknown family" "^mgc-bench: --families: expected names among crane-l-frame, .*, got 'bogus'$" \
   --suite sites --runs 1 --families crane-l-frame,bogus
+expect_bad "families without the sites suite" "^mgc-bench: --families: expected --suite sites, got --suite 'thesis'$" \
+  --suite thesis --runs 1 --families crane-l-frame
 expect_bad "sites without the machine files" "^mgc-bench: $tmp/none/machines/grove-tms870\\.yaml: cannot open the file$" \
   --suite sites --runs 1 --families crane-l-frame --scenarios "$tmp/none"
 

@@ -105,6 +105,10 @@ int main(int argc, char** argv) {
                  names.c_str(), suite_name.c_str());
     return 2;
   }
+  if (!site_families.empty() && suite_name != "sites") {
+    std::fprintf(stderr, "mgc-bench: --families: expected --suite sites, got --suite '%s'\n", suite_name.c_str());
+    return 2;
+  }
   std::string command = "mgc-bench";
   for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
   if (!out_dir.empty()) {
