@@ -6,10 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <functional>
 #include <numbers>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 #include <system_error>
 

@@ -51,7 +51,7 @@ std::string family_row(const std::string& planner, const std::vector<RunRecord>&
          " | " + std::to_string(s.recheck_failures) + " |\n";
 }
 
-const char* kTableHead =
+constexpr const char* kTableHead =
     "| planner | solved | median [ms] | p95 [ms] | path nodes | DoF switches | exec [s] | exec smoothed [s] | re-check failures |\n"
     "|---|---|---|---|---|---|---|---|---|\n";
 
@@ -71,7 +71,6 @@ std::filesystem::path sites_folder(const PlanningBenchOptions& options) {
   if (!options.out_dir.empty()) return std::filesystem::path(options.out_dir) / "sites";
   return std::filesystem::temp_directory_path() / ("mgc-bench-sites-" + std::to_string(::getpid()));
 }
-
 
 //! Re-planning figures of one re-planner on one machine's intruder sites.
 struct ReplanColumn {
