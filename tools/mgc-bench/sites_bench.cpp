@@ -24,6 +24,10 @@ namespace mgc::bench {
 
 namespace {
 
+//! The default one-joint-at-a-time planner and re-planner, whose targets the suite checks.
+const std::string kDefaultPlannerName{planning::kDefaultPlanner};
+const std::string kDefaultReplannerName{planning::kDefaultReplanner};
+
 //! The planners the suite runs: every single-machine planner (multi-rrt lifts with two cranes).
 std::vector<std::string> site_planners() {
   std::vector<std::string> names;
@@ -201,8 +205,8 @@ ReplanTable run_intruder_table(const PlanningBenchOptions& options, int seeds, c
             std::to_string(c.covered) + " (" + std::to_string(c.covered_solved) + ") |\n";
     }
   }
-  md += "\nTargets of the default re-planner `" + std::string(kDefaultReplanner) + "`: ";
-  const auto def = table.find(kDefaultReplanner);
+  md += "\nTargets of the default re-planner `" + std::string(kDefaultReplannerName) + "`: ";
+  const auto def = table.find(kDefaultReplannerName);
   if (def == table.end()) {
     md += "**not met**: it is not among this build's re-planners.\n";
   } else {
@@ -365,15 +369,15 @@ int run_sites_suite(const PlanningBenchOptions& options, const std::string& comm
   }
 
   // The default planner's targets.
-  const bool have_default = std::find(planners.begin(), planners.end(), kDefaultPlanner) != planners.end();
-  md += "\n#### Targets of the default one-joint-at-a-time planner `" + std::string(kDefaultPlanner) + "`\n\n";
+  const bool have_default = std::find(planners.begin(), planners.end(), kDefaultPlannerName) != planners.end();
+  md += "\n#### Targets of the default one-joint-at-a-time planner `" + std::string(kDefaultPlannerName) + "`\n\n";
   bool all_met = false;
   if (!have_default) {
-    md += "**not met**: `" + std::string(kDefaultPlanner) + "` is not among this build's planners.\n";
+    md += "**not met**: `" + std::string(kDefaultPlannerName) + "` is not among this build's planners.\n";
   } else if (pooled.empty()) {
     md += "**not met**: no solvable family was run.\n";
   } else {
-    const Summary d = summarize(kDefaultPlanner, pooled[kDefaultPlanner]);
+    const Summary d = summarize(kDefaultPlannerName, pooled[kDefaultPlannerName]);
     const double rate = 100.0 * d.successes / std::max(1, d.runs);
     const double median = percentile(d.times_ms, 0.5), p95 = percentile(d.times_ms, 0.95);
     // Per solvable site: the default planner's mean smoothed execution time against the best
@@ -381,7 +385,7 @@ int run_sites_suite(const PlanningBenchOptions& options, const std::string& comm
     std::vector<double> ratios;
     for (const SiteRuns& r : sites) {
       if (r.site.family->expectation != SiteExpectation::Solvable) continue;
-      const double mine = mean_exec_s(r.by_planner.at(kDefaultPlanner));
+      const double mine = mean_exec_s(r.by_planner.at(kDefaultPlannerName));
       double best = std::numeric_limits<double>::infinity();
       for (const std::string& planner : planners) {
         const double e = mean_exec_s(r.by_planner.at(planner));
@@ -414,7 +418,7 @@ int run_sites_suite(const PlanningBenchOptions& options, const std::string& comm
     json.key("replan_events");
     write_replan_json(json, replanning.rows);
     json.key("sites_folder").value(folder.string());
-    json.key("default_planner").value(kDefaultPlanner);
+    json.key("default_planner").value(kDefaultPlannerName);
     json.key("default_planner_targets_met").value(all_met);
     json.key("sites").begin_array();
     for (const SiteRuns& r : sites) {

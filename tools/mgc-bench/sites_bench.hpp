@@ -7,10 +7,6 @@
 
 namespace mgc::bench {
 
-//! The default one-joint-at-a-time planner, whose targets the sites suite checks.
-inline constexpr const char* kDefaultPlanner = "axis-connect";
-//! The default re-planner, whose targets the re-planning table checks.
-inline constexpr const char* kDefaultReplanner = "drrt-axis-connect";
 //! Planner seeds per intruder site in the re-planning table at most (one intruder site per solvable
 //! family; fewer with a smaller --runs).
 inline constexpr int kReplanSeedsPerSite = 2;
