@@ -134,13 +134,25 @@ JointVector MachineModel::interpolate(const JointVector& from, const JointVector
 Eigen::Vector3d hang_load(const Eigen::Matrix3d& heading, const Eigen::Vector3d& top, const Eigen::Vector3d& hook,
                           const Eigen::Vector3d& up, double cable_radius_m, double cable_length_m,
                           const Eigen::Vector3d& load_size_m, double sling_length_m, BodyState& cable,
-                          BodyState& load) noexcept {
+                          BodyState& sling, BodyState& load) noexcept {
   cable.world_from_body.linear() = heading;
   cable.world_from_body.translation() = 0.5 * (top + hook);
   cable.size_m = Eigen::Vector3d(2.0 * cable_radius_m, 2.0 * cable_radius_m, cable_length_m);
   load.world_from_body.linear() = heading;
   load.world_from_body.translation() = hook - (sling_length_m + 0.5 * load_size_m.z()) * up;
   load.size_m = load_size_m;
+  // Slings from the hook to the load's top corners (or any lifting points on its top face) lie
+  // in the pyramid from the hook to that face, and the pyramid lies in the box over the face up
+  // to the hook. Without a sling there is nothing between hook and load: the box is the load's
+  // own, not a degenerate flat one.
+  sling.world_from_body.linear() = heading;
+  if (sling_length_m > 0.0) {
+    sling.world_from_body.translation() = hook - 0.5 * sling_length_m * up;
+    sling.size_m = Eigen::Vector3d(load_size_m.x(), load_size_m.y(), sling_length_m);
+  } else {
+    sling.world_from_body.translation() = load.world_from_body.translation();
+    sling.size_m = load_size_m;
+  }
   return hook - (sling_length_m + load_size_m.z()) * up;
 }
 

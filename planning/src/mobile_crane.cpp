@@ -38,12 +38,14 @@ MobileCrane::MobileCrane(std::string name, std::vector<JointSpec> joints, const 
              {"superstructure", BodyShape::Box, false},
              {"boom", BodyShape::Box, true},
              {"cable", BodyShape::Capsule, true},
-             {"load", BodyShape::Box, false}};
+             {"load", BodyShape::Box, false},
+             {"sling", BodyShape::Box, false}};
   key_point_names_ = {"boom_foot", "boom_tip", "hook", "load_bottom"};
-  self_pairs_ = {{kLoad, kCarrier}, {kLoad, kSuperstructure}};
+  self_pairs_ = {{kLoad, kCarrier}, {kLoad, kSuperstructure}, {kSling, kCarrier}, {kSling, kSuperstructure}};
 
-  // Farthest body points from each joint's axis. The cable and the load translate with the boom
-  // tip (the cable stays vertical), so luffing moves them no more than the tip.
+  // Farthest body points from each joint's axis. The cable, the sling and the load translate with
+  // the boom tip (the cable stays vertical), so luffing moves them no more than the tip; the
+  // sling's footprint is the load's, so the load's corners bound its reach too.
   const auto& g = geometry_;
   const double boom_max = joints_[kBoomLength].position_max;
   const double boom_half_section = 0.5 * std::hypot(g.boom_width_m, g.boom_depth_m);
@@ -127,7 +129,8 @@ void MobileCrane::forward_kinematics(const JointVector& q, Kinematics& out) cons
   boom.size_m = Eigen::Vector3d(g.boom_depth_m, g.boom_width_m, boom_length);
 
   out.points[kPointLoadBottom] = hang_load(swing_frame.linear(), tip, hook, up, g.cable_radius_m, cable_length, task_.load_size_m,
-                                           task_.sling_length_m, out.bodies[kCable], out.bodies[kLoad]);
+                                           task_.sling_length_m, out.bodies[kCable], out.bodies[kSling],
+                                           out.bodies[kLoad]);
   out.points[kPointBoomFoot] = foot;
   out.points[kPointBoomTip] = tip;
   out.points[kPointHook] = hook;

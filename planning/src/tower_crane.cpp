@@ -98,12 +98,14 @@ TowerCrane::TowerCrane(std::string name, std::vector<JointSpec> joints, const To
              {"jib", BodyShape::Box, false},
              {"counter_jib", BodyShape::Box, false},
              {"cable", BodyShape::Capsule, true},
-             {"load", BodyShape::Box, false}};
+             {"load", BodyShape::Box, false},
+             {"sling", BodyShape::Box, false}};
   key_point_names_ = {"trolley", "hook", "load_bottom", "jib_tip"};
-  self_pairs_ = {{kLoad, kMast}};
+  self_pairs_ = {{kLoad, kMast}, {kSling, kMast}};
 
   // Slewing: the farthest body point from the mast axis is at the jib tip or under the trolley's
-  // farthest position (the load's corners). Trolley and hoist move points one for one.
+  // farthest position (the load's corners; the sling has the load's footprint). Trolley and hoist
+  // move points one for one.
   const auto& tg = geometry_;
   const double jib_reach = std::hypot(tg.jib_length_m, 0.5 * tg.jib_width_m);
   const double load_reach = joints_[kTrolleyRadius].position_max + 0.5 * task_.load_size_m.norm() + tg.cable_radius_m;
@@ -161,7 +163,8 @@ void TowerCrane::forward_kinematics(const JointVector& q, Kinematics& out) const
   // a negative length.
   const double cable_length_m = std::max(0.0, g.jib_height_m - d3);
   out.points[kPointLoadBottom] = hang_load(slew_frame.linear(), trolley, hook, up, g.cable_radius_m, cable_length_m,
-                                           task_.load_size_m, task_.sling_length_m, out.bodies[kCable], out.bodies[kLoad]);
+                                           task_.load_size_m, task_.sling_length_m, out.bodies[kCable], out.bodies[kSling],
+                                           out.bodies[kLoad]);
   out.points[kPointTrolley] = trolley;
   out.points[kPointHook] = hook;
   out.points[kPointJibTip] = slew_frame * Eigen::Vector3d(g.jib_length_m, 0.0, g.jib_height_m);

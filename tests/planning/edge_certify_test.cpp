@@ -214,7 +214,7 @@ TEST_CASE("a clearance ball goes when a dynamic obstacle moves and stays when it
   const JointVector middle = model.interpolate(from, to, 0.5);
   Kinematics k;
   model.forward_kinematics(middle, k);
-  const std::size_t load = model.bodies().size() - 1;
+  const auto load = static_cast<std::size_t>(model.body_index("load"));
   const Eigen::Vector3d load_m = k.bodies[load].world_from_body.translation();
   bool hit = false;
   for (double dx = -40.0; dx <= 40.0 && !hit; dx += 0.5) {

@@ -104,10 +104,10 @@ TEST_CASE("edge checks that reuse unmoved bodies give the brute-force verdict wi
     return q;
   };
 
-  // The mobile crane's bodies: carrier, superstructure, boom, cable, load. The first one each
-  // joint (swing, elevation, boom length, cable length) moves; those before it stay put.
+  // The mobile crane's bodies: carrier, superstructure, boom, cable, load, sling. The first one
+  // each joint (swing, elevation, boom length, cable length) moves; those before it stay put.
   REQUIRE(dof == 4);
-  REQUIRE(model.bodies().size() == 5);
+  REQUIRE(model.bodies().size() == 6);
   constexpr std::array<int, 4> kFirstMoved = {1, 2, 2, 3};
   constexpr int kEdges = 3000;
   for (int e = 0; e < kEdges; ++e) {

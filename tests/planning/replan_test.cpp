@@ -473,7 +473,7 @@ TEST_CASE("con-con-mod told the obstacles stand still bridges past a parked cran
     const JointVector middle = model.interpolate(path[e], path[e + 1], 0.5);
     Kinematics k;
     model.forward_kinematics(middle, k);
-    const Eigen::Vector3d load_m = k.bodies[model.bodies().size() - 1].world_from_body.translation();
+    const Eigen::Vector3d load_m = k.bodies[static_cast<std::size_t>(model.body_index("load"))].world_from_body.translation();
     for (double dx = -30.0; dx <= 30.0 && !parked; dx += 1.0) {
       for (double dy = -30.0; dy <= 30.0 && !parked; dy += 1.0) {
         park(Eigen::Isometry3d(Eigen::Translation3d(load_m.x() + dx, load_m.y() + dy, 0.0)));

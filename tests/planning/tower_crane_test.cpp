@@ -279,11 +279,14 @@ TEST_CASE("tower crane: model description and default joints", "[unit]") {
   CHECK(crane.body_index("mast") == TowerCrane::kMast);
   CHECK(crane.body_index("counter_jib") == TowerCrane::kCounterJib);
   CHECK(crane.body_index("load") == TowerCrane::kLoad);
+  CHECK(crane.body_index("sling") == TowerCrane::kSling);
   CHECK(crane.key_point_index("jib_tip") == TowerCrane::kPointJibTip);
   CHECK(crane.key_point_index("load_bottom") == TowerCrane::kPointLoadBottom);
-  REQUIRE(crane.self_pairs().size() == 1);
+  REQUIRE(crane.self_pairs().size() == 2);
   CHECK(crane.self_pairs()[0].body_a == TowerCrane::kLoad);
   CHECK(crane.self_pairs()[0].body_b == TowerCrane::kMast);
+  CHECK(crane.self_pairs()[1].body_a == TowerCrane::kSling);
+  CHECK(crane.self_pairs()[1].body_b == TowerCrane::kMast);
 
   const auto j = default_tower_crane_joints();
   REQUIRE(j.size() == 3);

@@ -130,13 +130,15 @@ class MachineModel {
   Eigen::Isometry3d world_from_base_ = Eigen::Isometry3d::Identity();
 };
 
-//! Poses the hoist rope (a vertical capsule from `top` down to `hook`) and the load box hung
-//! `sling_length_m` under the hook, both turned like `heading`; returns the load's bottom centre.
-//! Shared by the cranes. RT-safe.
+//! Poses the hoist rope (a vertical capsule from `top` down to `hook`), the rigging (a box with
+//! the load's footprint from the hook down to the load's top face: it holds every sling from the
+//! hook to lifting points on that face; the load's own box when the sling length is 0) and the
+//! load box hung `sling_length_m` under the hook, all turned like `heading`; returns the load's
+//! bottom centre. Shared by the cranes. RT-safe.
 Eigen::Vector3d hang_load(const Eigen::Matrix3d& heading, const Eigen::Vector3d& top, const Eigen::Vector3d& hook,
                           const Eigen::Vector3d& up, double cable_radius_m, double cable_length_m,
                           const Eigen::Vector3d& load_size_m, double sling_length_m, BodyState& cable,
-                          BodyState& load) noexcept;
+                          BodyState& sling, BodyState& load) noexcept;
 
 //! Craig's (modified) Denavit–Hartenberg link transform, the form of the thesis's Eq. 2.1:
 //! RotX(alpha_prev) * TransX(a_prev) * RotZ(theta) * TransZ(d).

@@ -50,7 +50,7 @@ class MobileCrane final : public MachineModel {
  public:
   enum Joint : int { kSwing = 0, kBoomElevation = 1, kBoomLength = 2, kCableLength = 3 };
   enum Frame : int { kFrameBase = 0, kFrameSwing, kFrameBoomFoot, kFrameBoomTip, kFrameHook };
-  enum Body : int { kCarrier = 0, kSuperstructure, kBoom, kCable, kLoad };
+  enum Body : int { kCarrier = 0, kSuperstructure, kBoom, kCable, kLoad, kSling };
   enum Point : int { kPointBoomFoot = 0, kPointBoomTip, kPointHook, kPointLoadBottom };
 
   //! Throws std::invalid_argument for joints that are not the four above in that order, or a
@@ -89,7 +89,7 @@ class MobileCrane final : public MachineModel {
   [[nodiscard]] double reach_bound(double boom_m, double lowest_elevation, int joint) const noexcept;
 
   double superstructure_reach_m_ = 0.0;  //!< farthest superstructure corner from the swing axis [m]
-  //! Farthest body point beyond the boom tip's radius: the load's corners or the boom box's. [m]
+  //! Farthest body point beyond the boom tip's radius: the load's (and sling's) corners or the boom box's. [m]
   double boom_margin_m_ = 0.0;
 };
 

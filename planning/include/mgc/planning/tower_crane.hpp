@@ -49,7 +49,7 @@ class TowerCrane final : public MachineModel {
   //! kFrameSlew, kFrameRadius and kFrameHook are the thesis frames {1}, {2}, {3}; {2} lies on the
   //! base plane under the trolley. kFrameTrolley is the trolley on the jib, with {3}'s axes.
   enum Frame : int { kFrameBase = 0, kFrameSlew, kFrameRadius, kFrameHook, kFrameTrolley };
-  enum Body : int { kMast = 0, kJib, kCounterJib, kCable, kLoad };
+  enum Body : int { kMast = 0, kJib, kCounterJib, kCable, kLoad, kSling };
   enum Point : int { kPointTrolley = 0, kPointHook, kPointLoadBottom, kPointJibTip };
 
   //! Throws std::invalid_argument for joints that are not the three above in that order, for

@@ -32,7 +32,7 @@ struct TruthSample {
   double t_s = std::numeric_limits<double>::quiet_NaN();  //!< simulation time [s]
   //! The real (undilated) machine to the nearest obstacle, static or dynamic; 0 in contact. [m]
   planning::Clearance clearance;
-  //! The same for the bodies the joints move (boom, cable, load; an excavator's upper structure
+  //! The same for the bodies the joints move (boom, cable, sling, load; an excavator's upper structure
   //! and arm): what the motion brings near, without a parked carrier's fixed distance to the
   //! site; 0 when the machine is in contact anywhere. [m]
   planning::Clearance moving_clearance;
