@@ -973,6 +973,17 @@ Validity CollisionWorld::validate_edge(const JointVector& from, const JointVecto
       add_ball(q);
     }
   }
+  // Every sample passed; the constraints between them as well (a load-chart row entered below its
+  // angle in a slice thinner than a step).
+  double t_constraint = 1.0;
+  const ConstraintVerdict along = model_.check_edge_constraints(from, to, t_constraint);
+  if (!along.ok()) {
+    Validity v;
+    v.status = Validity::Status::Constraint;
+    v.constraint = along;
+    if (at) *at = model_.interpolate(from, to, t_constraint);
+    return v;
+  }
   return {};
 }
 

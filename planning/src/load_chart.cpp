@@ -3,13 +3,88 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
 namespace mgc::planning {
 namespace {
 constexpr double kDegToRad = std::numbers::pi / 180.0;
-}
+//! Keeps the chart's own boom lengths, converted from feet, inside their row. [m]
+constexpr double kRowTolerance_m = 1e-6;
+//! The luff table's tolerance on its boom lengths. [ft]
+constexpr double kLuffRowTolerance_ft = 1e-6;
+
+//! A straight motion of boom length and elevation, both linear in t in [0, 1], and the first
+//! failure found on it so far.
+struct EdgeScan {
+  EdgeScan(double length_at_0, double length_change, double elevation_at_0, double elevation_change) noexcept
+      : length_0(length_at_0), length_delta(length_change), elevation_0(elevation_at_0), elevation_delta(elevation_change) {}
+
+  double length_0 = 0.0;     //!< boom length at t = 0, in the unit of the spans [m | ft]
+  double length_delta = 0.0;
+  double elevation_0 = 0.0;  //!< [rad]
+  double elevation_delta = 0.0;
+  double t_first = std::numeric_limits<double>::infinity();
+  ConstraintVerdict verdict;
+
+  void fail(double t, const ConstraintVerdict& v) noexcept {
+    if (t < t_first) {
+      t_first = t;
+      verdict = v;
+    }
+  }
+
+  //! The stretch [t0, t1] of the motion whose boom length lies in the span from lo to hi (each end
+  //! open or closed; +-inf for none); false when the motion never enters it.
+  bool stretch(double lo, bool lo_open, double hi, bool hi_open, double& t0, double& t1) const noexcept {
+    const double a = std::min(length_0, length_0 + length_delta);
+    const double b = std::max(length_0, length_0 + length_delta);
+    if (lo_open ? !(b > lo) : !(b >= lo)) return false;
+    if (hi_open ? !(a < hi) : !(a <= hi)) return false;
+    if (length_delta == 0.0) {
+      t0 = 0.0;
+      t1 = 1.0;
+      return true;
+    }
+    const auto t_at = [&](double length) {
+      if (!std::isfinite(length)) return (length > 0.0) == (length_delta > 0.0) ? 1.0 : 0.0;
+      return std::clamp((length - length_0) / length_delta, 0.0, 1.0);
+    };
+    t0 = std::min(t_at(lo), t_at(hi));
+    t1 = std::max(t_at(lo), t_at(hi));
+    return true;
+  }
+
+  //! Over the stretch [t0, t1] the elevation must stay within [lowest, highest]. Linear, so it
+  //! leaves the range, if at all, at t0 or where it crosses the limit its far end is past; a
+  //! strict failure at a stretch's open end goes on just inside it, so checking the closure is
+  //! exact. `v` carries the row and column.
+  void require_elevation(double t0, double t1, double lowest, double highest, ConstraintVerdict v) noexcept {
+    const double e0 = elevation_0 + t0 * elevation_delta;
+    const double e1 = elevation_0 + t1 * elevation_delta;
+    const auto status_of = [&](double e) {
+      return e < lowest ? ConstraintStatus::BoomBelowChartAngle : ConstraintStatus::BoomAboveChartAngle;
+    };
+    if (e0 < lowest || e0 > highest) {
+      v.status = status_of(e0);
+      v.value = e0;
+      v.limit = e0 < lowest ? lowest : highest;
+      fail(t0, v);
+    } else if (e1 < lowest || e1 > highest) {
+      v.status = status_of(e1);
+      v.value = e1;
+      v.limit = e1 < lowest ? lowest : highest;
+      fail(t0 + (t1 - t0) * (v.limit - e0) / (e1 - e0), v);
+    }
+  }
+
+  [[nodiscard]] ConstraintVerdict result(double& t) const noexcept {
+    t = std::isfinite(t_first) ? t_first : 1.0;
+    return verdict;
+  }
+};
+}  // namespace
 
 LoadChartRule::LoadChartRule(const LoadChart& chart, double load_lb) : load_lb_(load_lb) {
   bool any = false;
@@ -72,6 +147,41 @@ ConstraintVerdict LoadChartRule::check(double boom_length_m, double boom_elevati
   return v;
 }
 
+ConstraintVerdict LoadChartRule::check_edge(double from_boom_m, double from_elevation_rad, double to_boom_m,
+                                            double to_elevation_rad, double& t_first) const noexcept {
+  EdgeScan scan(from_boom_m, to_boom_m - from_boom_m, from_elevation_rad, to_elevation_rad - from_elevation_rad);
+  // Row r covers the boom lengths (row r-1, row r] (App. G: the first row at or above).
+  double previous_m = -std::numeric_limits<double>::infinity();
+  for (std::size_t r = 0; r < rows_.size(); ++r) {
+    const double bound_m = rows_[r].boom_length_m + kRowTolerance_m;
+    double t0 = 0.0;
+    double t1 = 0.0;
+    const bool enters = scan.stretch(previous_m, true, bound_m, false, t0, t1);
+    previous_m = bound_m;
+    if (!enters) continue;
+    ConstraintVerdict v;
+    v.chart_row = static_cast<int>(r);
+    if (rows_[r].column < 0) {
+      v.status = ConstraintStatus::LoadAboveChart;
+      v.value = load_lb_;
+      scan.fail(t0, v);
+      continue;
+    }
+    v.chart_column = rows_[r].column;
+    scan.require_elevation(t0, t1, rows_[r].min_elevation_rad, 0.5 * std::numbers::pi, v);
+  }
+  double t0 = 0.0;
+  double t1 = 0.0;
+  if (scan.stretch(previous_m, true, std::numeric_limits<double>::infinity(), true, t0, t1)) {
+    ConstraintVerdict v;
+    v.status = ConstraintStatus::BoomLengthOutsideChart;
+    v.value = std::max(from_boom_m, to_boom_m);
+    v.limit = rows_.empty() ? 0.0 : rows_.back().boom_length_m;
+    scan.fail(t0, v);
+  }
+  return scan.result(t_first);
+}
+
 ConstraintVerdict LuffRangeTable::check(double boom_length_m, double boom_elevation_rad) const noexcept {
   ConstraintVerdict v;
   v.value = boom_length_m;
@@ -101,6 +211,49 @@ ConstraintVerdict LuffRangeTable::check(double boom_length_m, double boom_elevat
     v.limit = min_deg * kDegToRad;
   }
   return v;
+}
+
+ConstraintVerdict LuffRangeTable::check_edge(double from_boom_m, double from_elevation_rad, double to_boom_m,
+                                             double to_elevation_rad, double& t_first) const noexcept {
+  // In feet, as the table and check() have it; the length stays linear in t.
+  EdgeScan scan(from_boom_m / kMetresPerFoot, (to_boom_m - from_boom_m) / kMetresPerFoot, from_elevation_rad,
+                to_elevation_rad - from_elevation_rad);
+  const std::size_t n = boom_lengths_ft.size();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const auto outside = [&](double lo, bool lo_open, double hi, bool hi_open) {
+    double t0 = 0.0;
+    double t1 = 0.0;
+    if (!scan.stretch(lo, lo_open, hi, hi_open, t0, t1)) return;
+    ConstraintVerdict v;
+    v.status = ConstraintStatus::BoomLengthOutsideChart;
+    v.value = scan.length_0 < lo ? std::max(from_boom_m, to_boom_m) : std::min(from_boom_m, to_boom_m);
+    scan.fail(t0, v);
+  };
+  if (n == 0) {
+    outside(-kInf, true, kInf, true);
+    return scan.result(t_first);
+  }
+  outside(-kInf, true, boom_lengths_ft.front() - kLuffRowTolerance_ft, true);
+  outside(boom_lengths_ft.back() + kLuffRowTolerance_ft, true, kInf, true);
+  for (std::size_t i = 0; i < n; ++i) {
+    double t0 = 0.0;
+    double t1 = 0.0;
+    ConstraintVerdict v;
+    v.chart_row = static_cast<int>(i);
+    // At row i (within the tolerance): its own range.
+    if (scan.stretch(boom_lengths_ft[i] - kLuffRowTolerance_ft, false, boom_lengths_ft[i] + kLuffRowTolerance_ft,
+                     false, t0, t1)) {
+      scan.require_elevation(t0, t1, luff_min_deg[i] * kDegToRad, luff_max_deg[i] * kDegToRad, v);
+    }
+    // Strictly between rows i and i + 1: both ranges at once.
+    if (i + 1 < n && scan.stretch(boom_lengths_ft[i] + kLuffRowTolerance_ft, true,
+                                  boom_lengths_ft[i + 1] - kLuffRowTolerance_ft, true, t0, t1)) {
+      v.chart_row = static_cast<int>(i + 1);
+      scan.require_elevation(t0, t1, std::max(luff_min_deg[i], luff_min_deg[i + 1]) * kDegToRad,
+                             std::min(luff_max_deg[i], luff_max_deg[i + 1]) * kDegToRad, v);
+    }
+  }
+  return scan.result(t_first);
 }
 
 }  // namespace mgc::planning

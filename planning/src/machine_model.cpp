@@ -96,6 +96,12 @@ int MachineModel::key_point_index(std::string_view name) const noexcept {
 
 ConstraintVerdict MachineModel::check_constraints(const JointVector& /*q*/) const noexcept { return {}; }
 
+ConstraintVerdict MachineModel::check_edge_constraints(const JointVector& /*from*/, const JointVector& /*to*/,
+                                                       double& t_first) const noexcept {
+  t_first = 1.0;
+  return {};
+}
+
 double MachineModel::edge_displacement_bound(const JointVector& /*from*/, const JointVector& /*to*/,
                                              int joint) const noexcept {
   return displacement_bound(joint);

@@ -158,6 +158,22 @@ ConstraintVerdict MobileCrane::check_constraints(const JointVector& q) const noe
   return v;
 }
 
+ConstraintVerdict MobileCrane::check_edge_constraints(const JointVector& from, const JointVector& to,
+                                                      double& t_first) const noexcept {
+  t_first = 1.0;
+  // interpolate() moves both linearly: neither is a continuous joint.
+  const double to_boom_m = from[kBoomLength] + (to[kBoomLength] - from[kBoomLength]);
+  const double to_elevation = from[kBoomElevation] + (to[kBoomElevation] - from[kBoomElevation]);
+  switch (task_.constraint) {
+    case CraneConstraintMode::LoadChart:
+      return rule_->check_edge(from[kBoomLength], from[kBoomElevation], to_boom_m, to_elevation, t_first);
+    case CraneConstraintMode::LuffTable:
+      return luff_table_->check_edge(from[kBoomLength], from[kBoomElevation], to_boom_m, to_elevation, t_first);
+    case CraneConstraintMode::None: break;
+  }
+  return {};
+}
+
 double MobileCrane::load_radius_m(const JointVector& q) const noexcept {
   return geometry_.boom_foot_forward_m + q[kBoomLength] * std::cos(q[kBoomElevation]);
 }

@@ -44,7 +44,15 @@ Validity brute_force_edge(CollisionWorld& world, const JointVector& from, const 
       return v;
     }
   }
-  return {};
+  // Samples all valid: the model's constraints between them, as validate_edge() defines it.
+  double t_first = 1.0;
+  Validity v;
+  v.constraint = model.check_edge_constraints(from, to, t_first);
+  if (!v.constraint.ok()) {
+    v.status = Validity::Status::Constraint;
+    at = model.interpolate(from, to, t_first);
+  }
+  return v;
 }
 
 struct Tally {

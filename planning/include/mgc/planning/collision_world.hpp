@@ -112,7 +112,10 @@ class CollisionWorld {
   //! the machine's real bodies keep at least half the dilation from every obstacle along the whole
   //! continuous motion, not only at the samples. On failure, `at` (if given) receives the first
   //! invalid configuration. Every sample is a full validate() (joint ranges, constraints,
-  //! collision), and the verdict is the one validating the samples one by one gives; a body the
+  //! collision), and the verdict is the one validating the samples one by one gives; when they
+  //! all pass, the model's constraints are checked between them too
+  //! (MachineModel::check_edge_constraints: the load chart along the whole edge), `at` then on
+  //! the boundary of the first failing stretch. A body the
   //! edge does not move (upstream of the joint a one-joint edge moves) keeps its pose, so its
   //! results are found at the first sample and reused at the rest (see body_checks()).
   [[nodiscard]] Validity validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,

@@ -37,6 +37,16 @@ class LoadChartRule {
   //! Checks a boom length [m] and boom elevation above horizontal [rad]. RT-safe.
   [[nodiscard]] ConstraintVerdict check(double boom_length_m, double boom_elevation_rad) const noexcept;
 
+  //! Checks every configuration of the straight motion from (from_boom_m, from_elevation_rad) to
+  //! (to_boom_m, to_elevation_rad), both linear in t in [0, 1]: ok only if check() holds all
+  //! along. Otherwise t_first receives the first fraction at which it fails (on the boundary of the
+  //! failing stretch: a row's span entered, or the elevation crossing its limit) and the verdict
+  //! says which rule, row and limit. Exact: the rule is constant over each row's span of boom
+  //! lengths, and a linear elevation meets a constant range at the ends of each span's stretch, so
+  //! those ends are the only configurations to check. RT-safe.
+  [[nodiscard]] ConstraintVerdict check_edge(double from_boom_m, double from_elevation_rad, double to_boom_m,
+                                             double to_elevation_rad, double& t_first) const noexcept;
+
   //! Minimum boom elevation [rad] for the row that covers boom_length_m, with the cell used;
   //! status says when the boom length or load is outside the chart.
   [[nodiscard]] ConstraintVerdict min_elevation(double boom_length_m) const noexcept;
@@ -64,6 +74,12 @@ struct LuffRangeTable {
 
   //! Elevation [rad] against the range at boom_length_m. RT-safe.
   [[nodiscard]] ConstraintVerdict check(double boom_length_m, double boom_elevation_rad) const noexcept;
+
+  //! The same along a straight motion, as LoadChartRule::check_edge: the range is constant at
+  //! each row and between two rows, so the ends of each stretch are the configurations to check.
+  //! RT-safe.
+  [[nodiscard]] ConstraintVerdict check_edge(double from_boom_m, double from_elevation_rad, double to_boom_m,
+                                             double to_elevation_rad, double& t_first) const noexcept;
 };
 
 }  // namespace mgc::planning

@@ -85,6 +85,14 @@ class MachineModel {
   //! joint ranges excluded. The default has none.
   [[nodiscard]] virtual ConstraintVerdict check_constraints(const JointVector& q) const noexcept;
 
+  //! The machine's constraints along the whole straight edge from -> to (MachineModel::interpolate),
+  //! between its samples too: ok only if check_constraints() holds at every configuration of the
+  //! edge that the model's rules can tell apart. Otherwise t_first receives the first fraction of
+  //! the edge at which they fail (on the boundary of the failing stretch). The default makes no
+  //! check beyond the samples; a model whose constraints can fail between samples overrides it.
+  [[nodiscard]] virtual ConstraintVerdict check_edge_constraints(const JointVector& from, const JointVector& to,
+                                                                 double& t_first) const noexcept;
+
   //! First joint outside its range, or -1. Continuous joints accept any finite value.
   [[nodiscard]] int joint_out_of_range(const JointVector& q) const noexcept;
 

@@ -62,6 +62,11 @@ class MobileCrane final : public MachineModel {
   [[nodiscard]] MachineKind kind() const noexcept override { return MachineKind::MobileCrane; }
   void forward_kinematics(const JointVector& q, Kinematics& out) const noexcept override;
   [[nodiscard]] ConstraintVerdict check_constraints(const JointVector& q) const noexcept override;
+  //! The load chart (or luff table) along the edge, exactly: boom length and elevation are linear
+  //! along it, and the rule is constant over each row's span of boom lengths
+  //! (LoadChartRule::check_edge). The load-above-ground rule stays checked at the samples.
+  [[nodiscard]] ConstraintVerdict check_edge_constraints(const JointVector& from, const JointVector& to,
+                                                         double& t_first) const noexcept override;
   //! Along a straight edge the boom length and elevation move linearly, so the boom reaches at
   //! most (longer end) x cos(lower end's elevation) from the swing axis, and the luffing radius is
   //! at most the longer end's boom.
