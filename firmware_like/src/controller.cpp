@@ -723,7 +723,9 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
       if (envelope_slowing_) ++stats_.envelope_cut_cycles;
     }
     if (rcl_) {
-      const guidance::RatedCapacityResult cut = rcl_->limit_velocity(q_wrapped_, rcl_->task_load_lb(), v_command_);
+      // Read along the motion of this period, so that a chart boundary crossed within it limits
+      // the motion before the crossing.
+      const guidance::RatedCapacityResult cut = rcl_->limit_velocity(q_wrapped_, rcl_->task_load_lb(), v_command_, dt_s);
       bool any_cut = false;
       for (int j = 0; j < n_; ++j) {
         if (cut.cut[static_cast<std::size_t>(j)]) {

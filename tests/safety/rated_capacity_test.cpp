@@ -8,6 +8,7 @@
 
 #include "fixture.hpp"
 #include "mgc/guidance/rated_capacity.hpp"
+#include "mgc/planning/random.hpp"
 
 using namespace mgc;
 using namespace mgc::guidance;
@@ -122,4 +123,64 @@ TEST_CASE("outside the chart every moment-increasing motion is cut", "[unit]") {
   CHECK(r.stage == RclStage::OutsideChart);
   CHECK(std::isinf(r.utilisation));
   CHECK(r.allowed_velocity[2] == 0.0);
+}
+
+TEST_CASE("the limiter reads the chart along the motion of the next period, not only where it stands", "[unit]") {
+  ThesisCrane t;
+  const planning::LoadChart& chart = t.crane.chart();
+  // 12,000 lb telescoping 24.0 -> 24.6 m while luffing up 35.3 -> 35.6 deg within one period:
+  // at 24.0 m the 80-ft row's 60-deg cell rates 13,650 lb (88 %), at the end the 90-ft row's
+  // 54.5-deg cell 12,500 lb (96 %); between, just past 80 ft below 35.5 deg, the 90-ft row's
+  // 61-deg cell rates only 10,900 lb.
+  const planning::JointVector q = ThesisCrane::q(80, 35.3, 24.0, 5.0);
+  planning::JointVector v = planning::JointVector::Zero(4);
+  v[MobileCrane::kBoomElevation] = 0.3 * kDeg;
+  v[MobileCrane::kBoomLength] = 0.6;
+  CHECK(rated_capacity(chart, 24.0, 35.3 * kDeg).capacity_lb == 13650.0);
+  CHECK(rated_capacity(chart, 24.6, 35.6 * kDeg).capacity_lb == 12500.0);
+  const RatedCapacity along = rated_capacity_along(chart, 24.0, 35.3 * kDeg, 24.6, 35.6 * kDeg);
+  CHECK(along.in_chart);
+  CHECK(along.capacity_lb == 10900.0);
+  CHECK(along.chart_row == 5);
+
+  RatedCapacityLimiter rcl(t.crane, RatedCapacityConfig{});
+  CHECK(rcl.limit_velocity(q, 12000.0, v).stage == RclStage::Normal);
+  rcl.reset();
+  const RatedCapacityResult ahead = rcl.limit_velocity(q, 12000.0, v, 1.0);
+  CHECK(ahead.stage == RclStage::Overload);
+  CHECK(ahead.utilisation == Approx(12000.0 / 10900.0));
+  // Telescoping out is cut; luffing up (it shortens the radius) is not.
+  CHECK(ahead.cut[MobileCrane::kBoomLength]);
+  CHECK_FALSE(ahead.cut[MobileCrane::kBoomElevation]);
+  CHECK(ahead.allowed_velocity[MobileCrane::kBoomLength] == 0.0);
+}
+
+TEST_CASE("the chart along a motion is never above any point of it, and is the point's when still", "[oracle][property]") {
+  ThesisCrane t;
+  const planning::LoadChart& chart = t.crane.chart();
+  planning::Random random(5);
+  constexpr int kDense = 10000;
+  for (int e = 0; e < 400; ++e) {
+    const auto row = 1 + static_cast<std::size_t>(random.uniform() * static_cast<double>(chart.boom_lengths_ft.size() - 2));
+    const double boundary_m = chart.boom_lengths_ft[row] * planning::kMetresPerFoot;
+    const double l0 = boundary_m + random.uniform(-1.0, 1.0);
+    const double l1 = boundary_m + random.uniform(-1.0, 1.0);
+    const double e0 = random.uniform(5.0, 80.0) * kDeg;
+    const double e1 = e0 + random.uniform(-5.0, 5.0) * kDeg;
+    CAPTURE(e, l0, l1, e0, e1);
+    const RatedCapacity still = rated_capacity_along(chart, l0, e0, l0, e0);
+    const RatedCapacity point = rated_capacity(chart, l0, e0);
+    CHECK(still.in_chart == point.in_chart);
+    CHECK(still.capacity_lb == point.capacity_lb);
+    const RatedCapacity along = rated_capacity_along(chart, l0, e0, l1, e1);
+    for (int k = 0; k <= kDense; ++k) {
+      const double s = static_cast<double>(k) / kDense;
+      const RatedCapacity at = rated_capacity(chart, l0 + s * (l1 - l0), e0 + s * (e1 - e0));
+      if (!at.in_chart) {
+        REQUIRE_FALSE(along.in_chart);
+        break;
+      }
+      REQUIRE(along.capacity_lb <= at.capacity_lb);
+    }
+  }
 }

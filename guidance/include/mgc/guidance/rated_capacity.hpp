@@ -33,6 +33,16 @@ struct RatedCapacity {
 [[nodiscard]] RatedCapacity rated_capacity(const planning::LoadChart& chart, double boom_length_m,
                                            double boom_elevation_rad) noexcept;
 
+//! The lowest rated capacity anywhere on the straight motion from (from_boom_m, from_elevation_rad)
+//! to (to_boom_m, to_elevation_rad), both linear: over every row whose span of boom lengths the
+//! motion enters, every cell its boom angle passes while there (the ends of each row's stretch
+//! bound the angle, a linear function). Not in_chart when any part of the motion is outside the
+//! chart. A stretch's end on a row boundary is taken with the row after it too, which can only
+//! lower the capacity. Equal to rated_capacity() for a motion that stays put. RT-safe.
+[[nodiscard]] RatedCapacity rated_capacity_along(const planning::LoadChart& chart, double from_boom_m,
+                                                 double from_elevation_rad, double to_boom_m,
+                                                 double to_elevation_rad) noexcept;
+
 struct RatedCapacityConfig {
   //! Early warning at 90 % of rated capacity (Grove GMK6300L, Maeda; DOMAIN-FACTS §4.1). [-]
   double warning_utilisation = 0.9;
@@ -72,6 +82,13 @@ class RatedCapacityLimiter {
   //! hook_load_lb is the measured hook load (rope force) [lb], incl. hook block and rigging.
   [[nodiscard]] RatedCapacityResult limit_velocity(const planning::JointVector& q, double hook_load_lb,
                                                    const planning::JointVector& commanded_velocity) noexcept;
+  //! The same over the motion of the next horizon_s at the commanded velocity: the chart is read
+  //! along the straight segment q -> q + commanded_velocity x horizon_s (rated_capacity_along), so
+  //! a chart row or cell boundary crossed within the period is limited before the machine crosses
+  //! it, not a cycle after. horizon_s = 0 reads the chart at q alone. [s]
+  [[nodiscard]] RatedCapacityResult limit_velocity(const planning::JointVector& q, double hook_load_lb,
+                                                   const planning::JointVector& commanded_velocity,
+                                                   double horizon_s) noexcept;
 
   //! The lift task's load with its capacity reduction, as the load-chart rule rates it. [lb]
   [[nodiscard]] double task_load_lb() const noexcept;
