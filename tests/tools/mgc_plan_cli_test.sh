@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # mgc-plan's contract: exit 0 on success, 2 on bad input with exactly one line on stderr naming the
-# file, the line and the field.
+# file, the line and the field. --check exits 0 when start and goal are feasible (a blocked straight
+# line between them included) and 2, as planning does, when either is not.
 set -u
 plan="$1"
 root="$2"
@@ -27,6 +28,14 @@ sed 's/  swing_deg: -80/  swing_deg: 10/' "$root/scenarios/thesis-steel-frame.ya
 sed -i "s|^machine: machines/|machine: $root/scenarios/machines/|" "$tmp/goal-in-frame.yaml"
 expect_bad "goal in collision" "^$tmp/goal-in-frame.yaml:[0-9]+: goal: infeasible: collision: .* hits obstacle 'frame/" \
   --scenario "$tmp/goal-in-frame.yaml" --check
+# The report on stdout still says why, pose by pose; the start stays feasible.
+grep -Eq "^ +infeasible: collision: .* hits obstacle 'frame/" "$tmp/out" || fail "goal in collision: stdout does not say why"
+grep -q "feasible, clearance" "$tmp/out" || fail "goal in collision: stdout lost the start's report"
+sed '0,/  swing_deg: 80/s//  swing_deg: 10/' "$root/scenarios/thesis-steel-frame.yaml" >"$tmp/start-in-frame.yaml"
+sed -i "s|^machine: machines/|machine: $root/scenarios/machines/|" "$tmp/start-in-frame.yaml"
+expect_bad "start in collision" "^$tmp/start-in-frame.yaml:[0-9]+: start: infeasible: collision: .* hits obstacle 'frame/" \
+  --scenario "$tmp/start-in-frame.yaml" --check
+grep -Eq "^ +infeasible: collision: " "$tmp/out" || fail "start in collision: stdout does not say why"
 
 expect_bad "missing file" "^$tmp/none.yaml: cannot open the file" --scenario "$tmp/none.yaml" --check
 expect_bad "both modes" "give either --check or --planner NAME, not both" --scenario "$root/scenarios/thesis-steel-frame.yaml" --check --planner limcon

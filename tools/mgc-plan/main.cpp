@@ -4,7 +4,8 @@
 // the scenario's lift and writes the path and its metrics as JSON (docs/plan-json.md).
 //
 // Exit status: 0 feasible, 1 the job could not be done, 2 bad input (one line on stderr naming
-// the file, the line, the field and what was expected).
+// the file, the line, the field and what was expected). An infeasible start or goal is bad input for
+// --check as for planning (2); a blocked straight line between feasible ones is not (0).
 
 #include <CLI/CLI.hpp>
 
