@@ -18,7 +18,14 @@ double wrap_angle(double angle_rad) noexcept {
     wrapped = std::fmod(wrapped, kTwoPi);
   }
   if (wrapped < 0.0) wrapped += kTwoPi;
+  // A negative wrapped within half an ulp of 0 rounds onto 2 pi when raised, which would give +pi.
+  if (wrapped >= kTwoPi) wrapped -= kTwoPi;
   return wrapped - std::numbers::pi;
+}
+
+double shorter_turn(double delta_rad) noexcept {
+  const double turn = wrap_angle(delta_rad);
+  return turn > std::numbers::pi - kHalfTurnTolerance_rad ? turn - 2.0 * std::numbers::pi : turn;
 }
 
 JointSpec joint_from_ramps(const char* name, JointType type, bool continuous, double position_min, double position_max,
@@ -124,7 +131,7 @@ int MachineModel::joint_out_of_range(const JointVector& q) const noexcept {
 JointVector MachineModel::difference(const JointVector& from, const JointVector& to) const noexcept {
   JointVector d = to - from;
   for (int i = 0; i < dof(); ++i) {
-    if (joints_[static_cast<std::size_t>(i)].continuous) d[i] = wrap_angle(d[i]);
+    if (joints_[static_cast<std::size_t>(i)].continuous) d[i] = shorter_turn(d[i]);
   }
   return d;
 }

@@ -313,6 +313,7 @@ TEST_CASE("wrap_angle returns the fmod formula's value bit for bit", "[unit]") {
   const auto reference = [](double angle_rad) {
     double wrapped = std::fmod(angle_rad + kPi, 2.0 * kPi);
     if (wrapped < 0.0) wrapped += 2.0 * kPi;
+    if (wrapped >= 2.0 * kPi) wrapped -= 2.0 * kPi;
     return wrapped - kPi;
   };
   const auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
@@ -321,7 +322,7 @@ TEST_CASE("wrap_angle returns the fmod formula's value bit for bit", "[unit]") {
   // of each branch, and angles many turns out (fmod itself).
   std::vector<double> angles = {0.0, -0.0, kPi, -kPi, 2.0 * kPi, -2.0 * kPi, 3.0 * kPi, -3.0 * kPi, 4.0 * kPi,
                                 std::nextafter(kPi, 0.0), std::nextafter(-kPi, 0.0), std::nextafter(3.0 * kPi, 0.0),
-                                std::nextafter(3.0 * kPi, 10.0), 1e6, -1e6};
+                                std::nextafter(3.0 * kPi, 10.0), std::nextafter(-kPi, -10.0), 1e6, -1e6};
   for (int n = 0; n < 200000; ++n) angles.push_back(random.uniform(-4.0 * kPi, 4.0 * kPi));
   for (int n = 0; n < 2000; ++n) angles.push_back(random.uniform(-1e4, 1e4));
   for (const double angle : angles) {

@@ -52,7 +52,7 @@ PlannerStatus NonUniformRrtPlanner::reset(const PlanningProblem& problem) {
     if (j.continuous) {
       lower_[k] = problem.start[i] - std::numbers::pi;
       upper_[k] = problem.start[i] + std::numbers::pi;
-      goal = problem.start[i] + wrap_angle(problem.goal[i] - problem.start[i]);
+      goal = problem.start[i] + shorter_turn(problem.goal[i] - problem.start[i]);
     } else {
       lower_[k] = j.position_min;
       upper_[k] = j.position_max;

@@ -42,7 +42,18 @@ struct JointSpec {
                                          double position_max, double max_velocity, double accel_ramp_s,
                                          double jerk_ramp_s);
 
-//! Wraps an angle into [-pi, pi). [rad]
+//! Wraps an angle into [-pi, pi): exactly +-pi (and anything that rounds onto +pi) gives -pi. [rad]
 [[nodiscard]] double wrap_angle(double angle_rad) noexcept;
+
+//! How near half a turn a continuous joint's difference must be to count as exactly half a turn:
+//! far above the rounding of angles given in degrees (a few 1e-16 rad), far below any motion. [rad]
+inline constexpr double kHalfTurnTolerance_rad = 1e-9;
+
+//! The turn a continuous joint makes from one angle to another delta_rad = to - from away: the
+//! shorter way round, in [-pi, pi). Half a turn goes the negative way (clockwise seen from above for
+//! a swing or a slew), and so does anything within kHalfTurnTolerance_rad of it either side (then the
+//! result lies in [-pi - kHalfTurnTolerance_rad, -pi + kHalfTurnTolerance_rad]), so start and goal
+//! 180 deg apart are joined the same way whichever way their degrees rounded. [rad]
+[[nodiscard]] double shorter_turn(double delta_rad) noexcept;
 
 }  // namespace mgc::planning

@@ -120,7 +120,8 @@ class MachineModel {
   //! many. Default: 1.
   [[nodiscard]] virtual int edge_min_samples(const JointVector& from, const JointVector& to) const noexcept;
 
-  //! to - from per joint; continuous joints take the shorter way round. [rad | m]
+  //! to - from per joint; continuous joints take the shorter way round, half a turn the negative
+  //! way (shorter_turn()). [rad | m]
   [[nodiscard]] JointVector difference(const JointVector& from, const JointVector& to) const noexcept;
   //! from + t (to - from) along difference(); continuous joints are re-wrapped into [-pi, pi).
   [[nodiscard]] JointVector interpolate(const JointVector& from, const JointVector& to, double t) const noexcept;
