@@ -46,6 +46,7 @@ void write_metrics(JsonWriter& j, const PathMetrics& m) {
   j.key("exec_time_simultaneous_s").value(m.exec_time_simultaneous_s);
   j.key("cost").value(m.cost);
   j.key("min_clearance_m").value(m.min_clearance_m);
+  j.key("min_clearance_sampled_m").value(m.min_clearance_sampled_m);
 }
 
 bool write_svg_file(const std::string& file, const SvgInput& view) {
