@@ -281,7 +281,12 @@ std::string EnvelopeRule::describe(int limit) const {
   char margin[32];
   std::snprintf(margin, sizeof margin, "%.2f", margin_m_);
   std::string text = "working envelope: " + name + " within " + margin + " m of the " + to_string(kind);
-  if (kind == EnvelopeLimit::Wall) text += " " + std::to_string(wall);
+  // Appended piece by piece: GCC 12 at -O3 misreads " " + to_string()'s insert at the front as an
+  // overlapping copy (-Wrestrict).
+  if (kind == EnvelopeLimit::Wall) {
+    text += ' ';
+    text += std::to_string(wall);
+  }
   return text;
 }
 

@@ -30,7 +30,13 @@ thread_local SuspensionCache t_cache;
 
 std::atomic<std::uint64_t> g_next_model_id{1};
 
-std::string crane_suffix(int crane) { return "_" + std::to_string(crane + 1); }
+// Appended rather than "_" + to_string(): GCC 12 at -O3 misreads the latter's insert at the front
+// as an overlapping copy (-Wrestrict).
+std::string crane_suffix(int crane) {
+  std::string suffix(1, '_');
+  suffix += std::to_string(crane + 1);
+  return suffix;
+}
 
 // Pose of a capsule (axis along body z) between two points.
 Eigen::Isometry3d segment_pose(const Eigen::Vector3d& from, const Eigen::Vector3d& to) noexcept {

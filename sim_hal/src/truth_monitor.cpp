@@ -163,7 +163,12 @@ std::string TruthMonitor::summary_line() const {
       const auto& names = model_->key_point_names();
       const int p = m.least_envelope.point;
       std::string limit = guidance::to_string(m.least_envelope.limit);
-      if (m.least_envelope.limit == guidance::EnvelopeLimit::Wall) limit += " " + std::to_string(m.least_envelope.wall);
+      // Appended piece by piece: GCC 12 at -O3 misreads " " + to_string()'s insert at the front as
+      // an overlapping copy (-Wrestrict).
+      if (m.least_envelope.limit == guidance::EnvelopeLimit::Wall) {
+        limit += ' ';
+        limit += std::to_string(m.least_envelope.wall);
+      }
       line += "; envelope: least distance " + fixed2(m.least_envelope.distance_m) + " m at " +
               fixed2(m.least_envelope_t_s) + " s (" +
               (p >= 0 && p < static_cast<int>(names.size()) ? names[static_cast<std::size_t>(p)] : std::string("?")) + " to " +

@@ -440,7 +440,13 @@ std::string planning_table(const std::vector<Metric>& rows, const std::vector<Su
   out += "\n" + rule + "\n";
   for (const Metric m : rows) {
     out += std::string("| ") + metric_name(m) + " |";
-    for (const Summary& c : columns) out += " " + cell(m, c) + " |";
+    // Appended piece by piece: GCC 12 at -O3 misreads " " + cell()'s insert at the front as an
+    // overlapping copy (-Wrestrict).
+    for (const Summary& c : columns) {
+      out += ' ';
+      out += cell(m, c);
+      out += " |";
+    }
     for (const PaperColumn& p : paper) {
       const auto it = p.figures.find(m);
       out += " " + (it == p.figures.end() ? std::string("-") : it->second) + " |";
