@@ -22,7 +22,9 @@ PathShortener::PathShortener(int dof, std::size_t capacity, double chunk_m, int 
 
 double PathShortener::delta(int j, const JointVector& from, const JointVector& to) const noexcept {
   const double d = to[j] - from[j];
-  return world_->model().joints()[static_cast<std::size_t>(j)].continuous ? std::remainder(d, 2.0 * std::numbers::pi) : d;
+  // The way MachineModel::difference turns, half a turn included, so that the stairs walked here
+  // are the edges the path's users interpolate.
+  return world_->model().joints()[static_cast<std::size_t>(j)].continuous ? shorter_turn(d) : d;
 }
 
 PathShortener::Status PathShortener::begin(CollisionWorld& world, const JointVector* prefix, const std::vector<JointVector>& path,
