@@ -1,9 +1,10 @@
 # SPDX-License-Identifier: Apache-2.0
 # Shared by the README's commands: installs the Debian packages mgc needs (only those missing,
-# with one apt-get update first) and configures and builds into build/.
+# with one apt-get update first) and configures and builds into build/ (and build-release/).
 
 MGC_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 MGC_BUILD_DIR="${MGC_BUILD_DIR:-$MGC_ROOT/build}"
+MGC_RELEASE_DIR="${MGC_RELEASE_DIR:-$MGC_ROOT/build-release}"
 
 MGC_PACKAGES=(
   g++ cmake make pkg-config
@@ -51,4 +52,11 @@ mgc_build() {
   local targets=()
   [ $# -gt 0 ] && targets=(--target "$@")
   cmake --build "$MGC_BUILD_DIR" -j "$(nproc)" "${targets[@]}"
+}
+
+# mgc_build_release: configures build-release/ as a Release build (-O3) without the tests and builds
+# the libraries and tools: the build type most users pick, kept free of -O3-only warnings.
+mgc_build_release() {
+  cmake -S "$MGC_ROOT" -B "$MGC_RELEASE_DIR" -DCMAKE_BUILD_TYPE=Release -DMGC_BUILD_TESTS=OFF
+  cmake --build "$MGC_RELEASE_DIR" -j "$(nproc)"
 }
