@@ -44,10 +44,35 @@ int moving_joint(const MachineModel& model, const JointVector& from, const Joint
   return joint;
 }
 
-PathMetrics compute_path_metrics(const MachineModel& model, CollisionWorld& world, const std::vector<JointVector>& path,
-                                 const JointVector& step, double clearance_tolerance_m) {
+PathMetrics compute_motion_metrics(const MachineModel& model, const std::vector<JointVector>& path) {
   PathMetrics m;
   m.path_nodes = static_cast<int>(path.size());
+  int previous_joint = -1;
+  for (std::size_t e = 0; e + 1 < path.size(); ++e) {
+    const JointVector d = model.difference(path[e], path[e + 1]);
+    double sequential = 0.0;
+    double simultaneous = 0.0;
+    for (int i = 0; i < model.dof(); ++i) {
+      const double t = std::abs(d[i]) / model.joints()[static_cast<std::size_t>(i)].max_velocity;
+      sequential += t;
+      simultaneous = std::max(simultaneous, t);
+    }
+    m.length_normalized += normalized_distance(model, path[e], path[e + 1], true);
+    m.roughness += normalized_distance(model, path[e], path[e + 1], false);
+    m.exec_time_sequential_s += sequential;
+    m.exec_time_simultaneous_s += simultaneous;
+    const int joint = moving_joint(model, path[e], path[e + 1]);
+    if (joint == -2) ++m.multi_joint_edges;
+    if (joint >= 0 && previous_joint >= 0 && joint != previous_joint) ++m.dof_switches;
+    if (joint != -1) previous_joint = joint;
+  }
+  m.cost = 0.5 * (m.exec_time_sequential_s / 60.0) + 0.5 * m.roughness;
+  return m;
+}
+
+PathMetrics compute_path_metrics(const MachineModel& model, CollisionWorld& world, const std::vector<JointVector>& path,
+                                 const JointVector& step, double clearance_tolerance_m) {
+  PathMetrics m = compute_motion_metrics(model, path);
   if (path.empty()) return m;
   // Every measured stretch of every edge, found first so that refinement compares each stretch's
   // bound with the least clearance measured anywhere on the path.
@@ -59,26 +84,9 @@ PathMetrics compute_path_metrics(const MachineModel& model, CollisionWorld& worl
   std::vector<Stretch> stretches;
   std::vector<double> travel_m(path.size() - 1, 0.0);  // bound on any body point's motion along each edge
   double sampled_m = world.clearance(path.front()).distance_m;
-  int previous_joint = -1;
   for (std::size_t e = 0; e + 1 < path.size(); ++e) {
     const JointVector d = model.difference(path[e], path[e + 1]);
-    double sequential = 0.0;
-    double simultaneous = 0.0;
-    for (int i = 0; i < model.dof(); ++i) {
-      const double t = std::abs(d[i]) / model.joints()[static_cast<std::size_t>(i)].max_velocity;
-      sequential += t;
-      simultaneous = std::max(simultaneous, t);
-      travel_m[e] += model.edge_displacement_bound(path[e], path[e + 1], i) * std::abs(d[i]);
-    }
-    m.length_normalized += normalized_distance(model, path[e], path[e + 1], true);
-    m.roughness += normalized_distance(model, path[e], path[e + 1], false);
-    m.exec_time_sequential_s += sequential;
-    m.exec_time_simultaneous_s += simultaneous;
-    const int joint = moving_joint(model, path[e], path[e + 1]);
-    if (joint == -2) ++m.multi_joint_edges;
-    if (joint >= 0 && previous_joint >= 0 && joint != previous_joint) ++m.dof_switches;
-    if (joint != -1) previous_joint = joint;
-
+    for (int i = 0; i < model.dof(); ++i) travel_m[e] += model.edge_displacement_bound(path[e], path[e + 1], i) * std::abs(d[i]);
     int steps = 1;
     for (int i = 0; i < model.dof(); ++i) steps = std::max(steps, static_cast<int>(std::ceil(std::abs(d[i]) / step[i])));
     double before_m = stretches.empty() ? sampled_m : stretches.back().d1_m;
@@ -120,7 +128,6 @@ PathMetrics compute_path_metrics(const MachineModel& model, CollisionWorld& worl
   }
   m.min_clearance_sampled_m = sampled_m;
   m.min_clearance_m = std::min(bound_m, sampled_m);
-  m.cost = 0.5 * (m.exec_time_sequential_s / 60.0) + 0.5 * m.roughness;
   return m;
 }
 

@@ -48,6 +48,9 @@ inline constexpr double kClearanceTolerance_m = 0.01;
 //! each time) until it does not, so min_clearance_m ends within clearance_tolerance_m of
 //! min_clearance_sampled_m and of the true minimum; 0 or less keeps the first bound. The bound is
 //! certified only for models whose displacement bound is strict (displacement_bound_is_strict()).
+//! The metrics of `path` that need no world: every field but the two clearances, which stay 0.
+[[nodiscard]] PathMetrics compute_motion_metrics(const MachineModel& model, const std::vector<JointVector>& path);
+
 [[nodiscard]] PathMetrics compute_path_metrics(const MachineModel& model, CollisionWorld& world,
                                                const std::vector<JointVector>& path, const JointVector& step,
                                                double clearance_tolerance_m = kClearanceTolerance_m);
