@@ -65,14 +65,7 @@ PlannerStats AxisConnectPlanner::stats() const noexcept {
 }
 
 void AxisConnectPlanner::tree(std::vector<JointVector>& nodes, std::vector<int>& parents) const {
-  nodes = start_tree_.nodes();
-  parents = start_tree_.parents();
-  const int offset = static_cast<int>(nodes.size());
-  for (std::size_t i = 0; i < goal_tree_.size(); ++i) {
-    nodes.push_back(goal_tree_.nodes()[i]);
-    const int p = goal_tree_.parents()[i];
-    parents.push_back(p < 0 ? -1 : p + offset);
-  }
+  export_trees(start_tree_, goal_tree_, nodes, parents);
 }
 
 AxisConnectPlanner::Move AxisConnectPlanner::move_joint(const JointVector& from, int joint, double value,
@@ -189,20 +182,8 @@ void AxisConnectPlanner::shuffle(std::array<int, kMaxJoints>& order) noexcept {
   }
 }
 
-JointVector AxisConnectPlanner::constrained_sample() noexcept {
-  constexpr int kMaxDraws = 100;
-  JointVector q = uniform_sample(*problem_->model, random_);
-  for (int draw = 1; draw < kMaxDraws && !problem_->model->check_constraints(q).ok(); ++draw) {
-    q = uniform_sample(*problem_->model, random_);
-  }
-  return q;
-}
-
 void AxisConnectPlanner::join(int start_node, int goal_node) noexcept {
-  path_.clear();
-  start_tree_.append_root_to(start_node, path_);
-  // The meeting configuration is already the last one from the start tree.
-  for (int n = goal_tree_.parent(goal_node); n >= 0; n = goal_tree_.parent(n)) path_.push_back(goal_tree_.node(n));
+  join_trees(start_tree_, start_node, goal_tree_, goal_node, path_);
 }
 
 void AxisConnectPlanner::merge_collinear() noexcept {
@@ -280,7 +261,7 @@ PlannerStatus AxisConnectPlanner::step(int iteration_budget) noexcept {
     }
     NodeTree& a = start_tree_grows_first_ ? start_tree_ : goal_tree_;
     NodeTree& b = start_tree_grows_first_ ? goal_tree_ : start_tree_;
-    const JointVector target = constrained_sample();
+    const JointVector target = constrained_sample(*problem_->model, random_);
     shuffle(order);
     int a_new = -1;
     const Growth ga = extend(a, a.nearest(*problem_, target), target, order, a_new);

@@ -65,14 +65,7 @@ PlannerStats BidirectionalPlanner::stats() const noexcept {
 }
 
 void BidirectionalPlanner::tree(std::vector<JointVector>& nodes, std::vector<int>& parents) const {
-  nodes = start_tree_.nodes();
-  parents = start_tree_.parents();
-  const int offset = static_cast<int>(nodes.size());
-  for (std::size_t i = 0; i < goal_tree_.size(); ++i) {
-    nodes.push_back(goal_tree_.nodes()[i]);
-    const int p = goal_tree_.parents()[i];
-    parents.push_back(p < 0 ? -1 : p + offset);
-  }
+  export_trees(start_tree_, goal_tree_, nodes, parents);
 }
 
 BidirectionalPlanner::Growth BidirectionalPlanner::extend(NodeTree& tree, const JointVector& target, int& added) noexcept {
@@ -102,15 +95,6 @@ BidirectionalPlanner::Growth BidirectionalPlanner::grow(NodeTree& tree, const Jo
   return use_connect ? connect(tree, target, added) : extend(tree, target, added);
 }
 
-JointVector BidirectionalPlanner::constrained_sample() noexcept {
-  constexpr int kMaxDraws = 100;
-  JointVector q = uniform_sample(*problem_->model, random_);
-  for (int draw = 1; draw < kMaxDraws && !problem_->model->check_constraints(q).ok(); ++draw) {
-    q = uniform_sample(*problem_->model, random_);
-  }
-  return q;
-}
-
 double BidirectionalPlanner::roughness(const JointVector& a, const JointVector& b) const noexcept {
   return normalized_distance(*problem_->model, a, b, false);
 }
@@ -120,7 +104,7 @@ JointVector BidirectionalPlanner::better_sample() noexcept {
   double best = std::numeric_limits<double>::infinity();
   JointVector best_q = problem_->start;
   for (int k = 0; k < candidates_; ++k) {
-    const JointVector q = constrained_sample();
+    const JointVector q = constrained_sample(*problem_->model, random_);
     const double r = roughness(q, problem_->start) + roughness(q, problem_->goal);
     if (r <= gamma_ * r0) return q;
     // Fig. 5 never lowers its running minimum (note 000 §4.4); the text means the minimum.
@@ -133,11 +117,7 @@ JointVector BidirectionalPlanner::better_sample() noexcept {
 }
 
 void BidirectionalPlanner::join(int start_node, int goal_node) noexcept {
-  path_.clear();
-  start_tree_.append_root_to(start_node, path_);
-  // The goal tree's branch runs from the meeting node up to the goal; the meeting configuration
-  // is already the last one from the start tree.
-  for (int n = goal_tree_.parent(goal_node); n >= 0; n = goal_tree_.parent(n)) path_.push_back(goal_tree_.node(n));
+  join_trees(start_tree_, start_node, goal_tree_, goal_node, path_);
 }
 
 PlannerStatus BidirectionalPlanner::step(int iteration_budget) noexcept {
@@ -149,7 +129,7 @@ PlannerStatus BidirectionalPlanner::step(int iteration_budget) noexcept {
     ++iterations_;
     NodeTree& a = start_tree_grows_first_ ? start_tree_ : goal_tree_;
     NodeTree& b = start_tree_grows_first_ ? goal_tree_ : start_tree_;
-    const JointVector target = variant_ == Variant::ConConMod ? better_sample() : constrained_sample();
+    const JointVector target = variant_ == Variant::ConConMod ? better_sample() : constrained_sample(*problem_->model, random_);
     int a_new = -1;
     const Growth ga = grow(a, target, first_connects, a_new);
     if (ga == Growth::PoolFull) return status_ = PlannerStatus::PoolExhausted;

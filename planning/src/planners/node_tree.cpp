@@ -70,4 +70,28 @@ JointVector uniform_sample(const MachineModel& model, Random& random) noexcept {
   return q;
 }
 
+JointVector constrained_sample(const MachineModel& model, Random& random) noexcept {
+  constexpr int kMaxDraws = 100;
+  JointVector q = uniform_sample(model, random);
+  for (int draw = 1; draw < kMaxDraws && !model.check_constraints(q).ok(); ++draw) q = uniform_sample(model, random);
+  return q;
+}
+
+void join_trees(const NodeTree& start, int start_node, const NodeTree& goal, int goal_node, std::vector<JointVector>& path) noexcept {
+  path.clear();
+  start.append_root_to(start_node, path);
+  for (int n = goal.parent(goal_node); n >= 0; n = goal.parent(n)) path.push_back(goal.node(n));
+}
+
+void export_trees(const NodeTree& start, const NodeTree& goal, std::vector<JointVector>& nodes, std::vector<int>& parents) {
+  nodes = start.nodes();
+  parents = start.parents();
+  const int offset = static_cast<int>(nodes.size());
+  for (std::size_t i = 0; i < goal.size(); ++i) {
+    nodes.push_back(goal.nodes()[i]);
+    const int p = goal.parents()[i];
+    parents.push_back(p < 0 ? -1 : p + offset);
+  }
+}
+
 }  // namespace mgc::planning

@@ -69,7 +69,6 @@ class AxisConnectPlanner final : public Planner {
   [[nodiscard]] Growth connect_exact(NodeTree& tree, int from, const JointVector& target, int& last) noexcept;
   //! A random order of all the joints.
   void shuffle(std::array<int, kMaxJoints>& order) noexcept;
-  [[nodiscard]] JointVector constrained_sample() noexcept;
   void join(int start_node, int goal_node) noexcept;
   //! Merges consecutive edges that move the same single joint; drops edges that move nothing.
   void merge_collinear() noexcept;

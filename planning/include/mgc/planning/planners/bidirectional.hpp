@@ -42,10 +42,6 @@ class BidirectionalPlanner final : public Planner {
   [[nodiscard]] Growth extend(NodeTree& tree, const JointVector& target, int& added) noexcept;
   [[nodiscard]] Growth connect(NodeTree& tree, const JointVector& target, int& added) noexcept;
   [[nodiscard]] Growth grow(NodeTree& tree, const JointVector& target, bool use_connect, int& added) noexcept;
-  //! A uniform sample that satisfies the machine's engineering constraints (seed 000's
-  //! Random-Node-Satisfy-Eng-Const), by rejection; gives up after a bounded number of draws and
-  //! returns the last one.
-  [[nodiscard]] JointVector constrained_sample() noexcept;
   //! Seed 000's Choose-Better-Node: the first of k constrained samples inside the ellipsoid of
   //! Eq. 6, else the one with the smallest Eq. 5 roughness.
   [[nodiscard]] JointVector better_sample() noexcept;

@@ -45,5 +45,16 @@ class NodeTree {
 
 //! Uniform over the joint ranges.
 [[nodiscard]] JointVector uniform_sample(const MachineModel& model, Random& random) noexcept;
+//! A uniform sample that satisfies the machine's engineering constraints (seed 000's
+//! Random-Node-Satisfy-Eng-Const), by rejection; gives up after a bounded number of draws and
+//! returns the last one. RT-safe.
+[[nodiscard]] JointVector constrained_sample(const MachineModel& model, Random& random) noexcept;
+
+//! A bidirectional planner's path where its trees meet: `start`'s branch from the root to
+//! `start_node`, then `goal`'s from `goal_node`'s parent up to its root (the meeting configuration
+//! is in both). `path` is cleared first; its capacity is the caller's. RT-safe.
+void join_trees(const NodeTree& start, int start_node, const NodeTree& goal, int goal_node, std::vector<JointVector>& path) noexcept;
+//! Both trees as one for drawing, the goal tree's indices after the start tree's. Not RT.
+void export_trees(const NodeTree& start, const NodeTree& goal, std::vector<JointVector>& nodes, std::vector<int>& parents);
 
 }  // namespace mgc::planning
