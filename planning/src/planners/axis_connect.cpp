@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <numbers>
 
 #include "mgc/planning/path_metrics.hpp"
@@ -159,7 +158,14 @@ AxisConnectPlanner::Growth AxisConnectPlanner::connect_exact(NodeTree& tree, int
     // lexicographically last of them comes next, then the next permutation leaves that prefix.
     const auto begin = perm.begin();
     const auto end = perm.begin() + count;
-    std::sort(begin + blocked + 1, end, std::greater<>());
+    // Descending by insertion: n <= 8, and std::sort's introsort here trips GCC 12's
+    // -Warray-bounds at -O3.
+    for (int a = blocked + 2; a < count; ++a) {
+      const int v = perm[static_cast<std::size_t>(a)];
+      int b = a;
+      for (; b > blocked + 1 && perm[static_cast<std::size_t>(b - 1)] < v; --b) perm[static_cast<std::size_t>(b)] = perm[static_cast<std::size_t>(b - 1)];
+      perm[static_cast<std::size_t>(b)] = v;
+    }
     const std::array<int, kMaxJoints> before = perm;
     if (!std::next_permutation(begin, end)) return Growth::Trapped;
     int same = 0;
