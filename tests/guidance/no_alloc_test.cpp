@@ -8,6 +8,7 @@
 #include <random>
 
 #include "allocation_counter.hpp"
+#include "mgc/guidance/diagnostics.hpp"
 #include "mgc/guidance/online.hpp"
 #include "mgc/guidance/trajectory.hpp"
 
@@ -76,4 +77,37 @@ TEST_CASE("the online trajectory and the one-joint-at-a-time wrapper do not allo
   }
   CHECK(mgc::test::allocation_count() == before);
   CHECK(std::isfinite(state.position + current[0].position));
+}
+
+TEST_CASE("the plausibility monitor's cycle, its findings and its reset do not allocate", "[unit]") {
+  const std::array<PlausibilityJoint, 2> joints{{{0.05, 0.02, 0.0, 1.4, false, false}, {0.4, 0.2, 1.0, 36.0, false, true}}};
+  PlausibilityMonitor monitor(joints);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  PlausibilityInputs in;
+  in.drive_enabled = true;
+  in.valve_active = true;
+  in.position = {0.7, 10.0};
+  int findings = 0;
+  const long before = mgc::test::allocation_count();
+  for (int n = 0; n < 20000; ++n) {
+    in.now_us += 10'000;
+    for (std::size_t j = 0; j < 2; ++j) {
+      in.commanded_velocity[j] = 0.5 * joints[j].max_velocity * u(rng);
+      in.position[j] += in.commanded_velocity[j] * 0.01 + (n % 997 == 0 ? 0.3 : 0.0);  // now and then a lie
+      in.sample_us[j] = in.now_us;
+      in.valid[j] = n % 301 != 0;
+      in.updated[j] = true;
+      in.valve_commanded[j] = in.commanded_velocity[j] / joints[j].max_velocity;
+      in.valve_applied[j] = in.valve_commanded[j];
+    }
+    ++in.valve_command_counter;
+    ++in.valve_commands_sent;
+    if (monitor.update(in).fault != PlausibilityFault::None) {
+      ++findings;
+      monitor.reset();
+    }
+  }
+  CHECK(mgc::test::allocation_count() == before);
+  CHECK(findings > 0);
 }

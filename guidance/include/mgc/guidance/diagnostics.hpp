@@ -1,0 +1,174 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "mgc/limits.hpp"
+
+//! Plausibility of the machine's sensors and actuators (docs/diagnostics.md): every cycle, each
+//! joint's measured motion against what its valve command and a bracketing actuator model allow,
+//! each encoder's samples against what an actuator can do, and the valve node's own account of its
+//! spools and commands against what the controller sent. A detection is a named fault with the
+//! joint it names and the time it was seen; the first one is latched until reset().
+namespace mgc::guidance {
+
+enum class PlausibilityFault : std::uint8_t {
+  None = 0,
+  EncoderOutOfRange,  //!< a value beyond the joint's end stops (plus a margin)
+  EncoderStep,        //!< a step between two samples that no actuator can make in their interval
+  EncoderStuck,       //!< the value repeats exactly while the commanded motion must change it
+  JointNotFollowing,  //!< the joint moves less than its command allows (jammed, valve, or encoder)
+  JointRunaway,       //!< the joint moves more than its command allows, or moves while commanded to stop
+  ValveNotObeying,    //!< the valve's applied spools or its command counter do not follow the commands
+};
+[[nodiscard]] const char* to_string(PlausibilityFault fault) noexcept;
+
+//! One joint as the monitor models it (from the machine model's joint limits).
+struct PlausibilityJoint {
+  double max_velocity = 0.0;      //!< at full valve command [rad/s | m/s]
+  double max_acceleration = 0.0;  //!< [rad/s^2 | m/s^2]
+  double position_min = 0.0;      //!< end stop [rad | m]
+  double position_max = 0.0;      //!< end stop [rad | m]
+  bool continuous = false;        //!< a slew ring: no end stops, positions compared modulo a turn
+  bool prismatic = false;         //!< tolerances in metres rather than radians
+};
+
+//! The bounds of the actuator model and the thresholds; defaults and their reasons in
+//! docs/diagnostics.md.
+struct PlausibilityConfig {
+  //! The joint's speed for a command may be this fraction off the commanded one (load, oil
+  //! temperature, valve calibration). [-]
+  double gain_tolerance = 0.25;
+  //! Up to this fraction of max velocity may be lost in (or added by a mis-calibrated) deadband. [-]
+  double deadband_fraction = 0.05;
+  //! The joint follows its command with a first-order lag somewhere in [lag_min_s, lag_max_s]
+  //! (valve ramp, transport delay and the actuator's own lag together). [s]
+  double lag_min_s = 0.05;
+  double lag_max_s = 0.40;
+  //! The measured travel over this window is compared with the model's travel bracket. [µs]
+  std::int64_t window_us = 300'000;
+  //! Travel beyond the bracket that counts as a fault. [rad]
+  double tolerance_rad = 0.15 * 3.14159265358979323846 / 180.0;
+  double tolerance_m = 0.02;  //!< the same for a prismatic joint [m]
+  //! A value this far beyond an end stop is out of range. [rad | m]
+  double range_margin_rad = 0.5 * 3.14159265358979323846 / 180.0;
+  double range_margin_m = 0.05;
+  //! A step between samples beyond step_speed_factor × max velocity × (their interval +
+  //! step_time_allowance_us), plus step_noise, cannot be motion. [- | µs | rad | m]
+  double step_speed_factor = 1.5;
+  std::int64_t step_time_allowance_us = 20'000;
+  double step_noise_rad = 0.005 * 3.14159265358979323846 / 180.0;
+  double step_noise_m = 0.0005;
+  //! An encoder repeating its value over this many samples while the model's least travel since the
+  //! last change exceeds stuck_travel is stuck. [samples | rad | m]
+  int stuck_samples = 5;
+  double stuck_travel_rad = 0.02 * 3.14159265358979323846 / 180.0;
+  double stuck_travel_m = 0.002;
+  //! An applied spool this far from the commanded one (after the valve's documented ramp) for
+  //! valve_mismatch_us does not obey. [- | µs]
+  double valve_tolerance = 0.05;
+  std::int64_t valve_mismatch_us = 50'000;
+  double valve_ramp_per_s = 10.0;  //!< the valve node's set-point ramp (docs/protocol.md) [1/s]
+  //! The valve's command counter standing still for this long while commands are sent. [µs]
+  std::int64_t valve_counter_timeout_us = 100'000;
+};
+
+//! One cycle's inputs: the Hal's snapshot and the loop's previous command, mapped by the loop.
+struct PlausibilityInputs {
+  std::int64_t now_us = 0;
+  std::array<double, kMaxJoints> position{};       //!< last decoded sample [rad | m]
+  std::array<std::int64_t, kMaxJoints> sample_us{};  //!< its receive time [µs]
+  std::array<bool, kMaxJoints> valid{};            //!< the Hal's JointReading::valid
+  std::array<bool, kMaxJoints> updated{};          //!< a new sample this cycle
+  //! The velocity the loop commanded in its previous cycle, which the valve applies now. [rad/s | m/s]
+  std::array<double, kMaxJoints> commanded_velocity{};
+  //! The commands can move the machine: the valve reports Active and pilot pressure is enabled.
+  //! Otherwise the model's input is zero.
+  bool drive_enabled = false;
+  //! The valve node reports Active with a fresh status: its applied spools and counter are checked.
+  bool valve_active = false;
+  std::array<double, kMaxJoints> valve_applied{};    //!< spools the valve reports in force [-1, 1]
+  std::array<double, kMaxJoints> valve_commanded{};  //!< spools the loop last sent, same scale [-1, 1]
+  std::uint8_t valve_command_counter = 0;            //!< the valve's count of accepted commands, mod 256
+  std::uint32_t valve_commands_sent = 0;             //!< command writes that went out [-]
+};
+
+struct PlausibilityResult {
+  PlausibilityFault fault = PlausibilityFault::None;
+  int joint = -1;               //!< the joint it names; -1 for the valve's counter
+  std::int64_t detected_us = 0;  //!< when it was seen [µs]
+  //! The valve is in doubt (it does not obey, or a joint moves beyond its command): stopping
+  //! through it cannot be trusted, so the loop cuts pilot pressure at once.
+  bool cut_required = false;
+};
+
+class PlausibilityMonitor {
+ public:
+  //! One entry per joint (1..kMaxJoints). Start-up only: throws std::invalid_argument for a joint
+  //! without positive max velocity and acceleration, or a configuration out of range.
+  PlausibilityMonitor(std::span<const PlausibilityJoint> joints, const PlausibilityConfig& config = {});
+
+  //! One cycle. RT-safe: no allocation, no throw. Returns the latched result.
+  const PlausibilityResult& update(const PlausibilityInputs& in) noexcept;
+
+  //! Forgets the latched fault and the history: after an operator's acknowledgement, at rest.
+  void reset() noexcept;
+
+  [[nodiscard]] const PlausibilityResult& result() const noexcept { return result_; }
+  //! Largest share of its threshold any window check reached since reset (1 = at the threshold):
+  //! the margin the motion checks kept against a false alarm. [-]
+  [[nodiscard]] double peak_window_ratio() const noexcept { return peak_window_ratio_; }
+  [[nodiscard]] const PlausibilityConfig& config() const noexcept { return config_; }
+
+ private:
+  static constexpr std::size_t kWindowEntries = 40;
+  struct Entry {
+    std::int64_t t_us = 0;
+    double q = 0.0;       //!< measured, unwrapped [rad | m]
+    double lo = 0.0;      //!< model's least travel since start [rad | m]
+    double hi = 0.0;      //!< model's most travel since start [rad | m]
+  };
+  struct JointState {
+    bool have_sample = false;
+    double raw = 0.0;                 //!< last sample as decoded [rad | m]
+    std::int64_t sample_us = 0;
+    double q = 0.0;                   //!< unwrapped measured position [rad | m]
+    std::array<double, 4> v{};        //!< the bracketing models' velocities [rad/s | m/s]
+    double lo = 0.0;                  //!< integral of the bracket's lower velocity [rad | m]
+    double hi = 0.0;                  //!< integral of the bracket's upper velocity [rad | m]
+    int frozen = 0;                   //!< consecutive samples equal to the one before
+    double expected_since_change = 0.0;  //!< the model's least travel since the value last changed [rad | m]
+    std::array<Entry, kWindowEntries> ring{};
+    std::size_t head = 0;             //!< next slot
+    std::size_t count = 0;
+    double spool_model = 0.0;         //!< the valve's ramp applied to the commands [-]
+    double spool_model_prev = 0.0;
+    std::int64_t mismatch_since_us = -1;
+  };
+
+  void raise(PlausibilityFault fault, int joint, std::int64_t now_us) noexcept;
+  void update_models(JointState& s, const PlausibilityJoint& joint, double command, double dt_s) noexcept;
+  void check_samples(std::size_t j, const PlausibilityInputs& in, double dt_s) noexcept;
+  void check_window(std::size_t j, std::int64_t now_us) noexcept;
+  void check_valve(const PlausibilityInputs& in, double dt_s) noexcept;
+
+  std::array<PlausibilityJoint, kMaxJoints> joints_{};
+  std::size_t n_ = 0;
+  PlausibilityConfig config_;
+  std::array<JointState, kMaxJoints> state_{};
+  PlausibilityResult result_{};
+  bool started_ = false;
+  std::int64_t last_us_ = 0;
+  std::int64_t push_every_us_ = 0;
+  std::int64_t last_push_us_ = 0;
+  bool counter_known_ = false;
+  std::uint8_t last_counter_ = 0;
+  std::int64_t counter_change_us_ = 0;
+  std::uint32_t sent_at_change_ = 0;
+  double peak_window_ratio_ = 0.0;
+};
+
+}  // namespace mgc::guidance

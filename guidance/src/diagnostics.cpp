@@ -1,0 +1,265 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/guidance/diagnostics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace mgc::guidance {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+double sign(double v) noexcept { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
+
+}  // namespace
+
+const char* to_string(PlausibilityFault fault) noexcept {
+  switch (fault) {
+    case PlausibilityFault::None: return "None";
+    case PlausibilityFault::EncoderOutOfRange: return "EncoderOutOfRange";
+    case PlausibilityFault::EncoderStep: return "EncoderStep";
+    case PlausibilityFault::EncoderStuck: return "EncoderStuck";
+    case PlausibilityFault::JointNotFollowing: return "JointNotFollowing";
+    case PlausibilityFault::JointRunaway: return "JointRunaway";
+    case PlausibilityFault::ValveNotObeying: return "ValveNotObeying";
+  }
+  return "unknown";
+}
+
+PlausibilityMonitor::PlausibilityMonitor(std::span<const PlausibilityJoint> joints, const PlausibilityConfig& config)
+    : config_(config) {
+  const auto fail = [](const std::string& what) { throw std::invalid_argument("PlausibilityMonitor: " + what); };
+  if (joints.empty() || joints.size() > joints_.size()) fail("expected 1.." + std::to_string(joints_.size()) + " joints");
+  for (std::size_t j = 0; j < joints.size(); ++j) {
+    const PlausibilityJoint& p = joints[j];
+    if (!(p.max_velocity > 0.0 && std::isfinite(p.max_velocity)) || !(p.max_acceleration > 0.0 && std::isfinite(p.max_acceleration))) {
+      fail("joint " + std::to_string(j) + ": max_velocity and max_acceleration must be finite and > 0");
+    }
+    joints_[j] = p;
+  }
+  n_ = joints.size();
+  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  if (!(config.gain_tolerance >= 0.0 && config.gain_tolerance < 1.0) || !(config.deadband_fraction >= 0.0 && config.deadband_fraction < 0.5)) {
+    fail("gain_tolerance must be in [0, 1) and deadband_fraction in [0, 0.5)");
+  }
+  if (!positive(config.lag_min_s) || !(config.lag_max_s >= config.lag_min_s) || !std::isfinite(config.lag_max_s)) {
+    fail("expected 0 < lag_min_s <= lag_max_s");
+  }
+  if (config.window_us <= 0 || config.valve_mismatch_us <= 0 || config.valve_counter_timeout_us <= 0 || config.step_time_allowance_us < 0) {
+    fail("window_us, valve_mismatch_us and valve_counter_timeout_us must be > 0, step_time_allowance_us >= 0");
+  }
+  if (!positive(config.tolerance_rad) || !positive(config.tolerance_m) || !positive(config.step_speed_factor) ||
+      !positive(config.valve_tolerance) || !positive(config.valve_ramp_per_s) || config.stuck_samples < 1 ||
+      !(config.range_margin_rad >= 0.0) || !(config.range_margin_m >= 0.0) || !(config.step_noise_rad >= 0.0) ||
+      !(config.step_noise_m >= 0.0) || !(config.stuck_travel_rad >= 0.0) || !(config.stuck_travel_m >= 0.0)) {
+    fail("tolerances, margins and rates must be finite and positive (margins and noise >= 0), stuck_samples >= 1");
+  }
+  push_every_us_ = std::max<std::int64_t>(1, config.window_us / static_cast<std::int64_t>(kWindowEntries - 8));
+}
+
+void PlausibilityMonitor::reset() noexcept {
+  result_ = {};
+  for (JointState& s : state_) s = JointState{};
+  started_ = false;
+  counter_known_ = false;
+  peak_window_ratio_ = 0.0;
+}
+
+void PlausibilityMonitor::raise(PlausibilityFault fault, int joint, std::int64_t now_us) noexcept {
+  if (result_.fault != PlausibilityFault::None) return;
+  result_.fault = fault;
+  result_.joint = joint;
+  result_.detected_us = now_us;
+  result_.cut_required = fault == PlausibilityFault::JointRunaway || fault == PlausibilityFault::ValveNotObeying;
+}
+
+void PlausibilityMonitor::update_models(JointState& s, const PlausibilityJoint& joint, double command, double dt_s) noexcept {
+  // Four first-order models, fast and slow lag each on the largest and the smallest speed the
+  // command may give: the true velocity stays between the least and the most of them.
+  const double g = config_.gain_tolerance;
+  const double deadband = config_.deadband_fraction * joint.max_velocity;
+  const double magnitude = std::min(std::abs(command), joint.max_velocity);
+  const double high = sign(command) * std::min(magnitude * (1.0 + g) + (magnitude > 0.0 ? deadband : 0.0), joint.max_velocity * (1.0 + g));
+  const double low = sign(command) * std::max(0.0, magnitude * (1.0 - g) - deadband);
+  const double fast = 1.0 - std::exp(-dt_s / config_.lag_min_s);
+  const double slow = 1.0 - std::exp(-dt_s / config_.lag_max_s);
+  const double accel_fast = joint.max_acceleration * (1.0 + g) * dt_s;
+  const double accel_slow = joint.max_acceleration * (1.0 - g) * dt_s;
+  const double targets[4] = {high, low, high, low};
+  for (std::size_t m = 0; m < 4; ++m) {
+    const bool is_fast = m < 2;
+    const double step = (targets[m] - s.v[m]) * (is_fast ? fast : slow);
+    const double limit = is_fast ? accel_fast : accel_slow;
+    s.v[m] += std::clamp(step, -limit, limit);
+  }
+  const auto [lo, hi] = std::minmax({s.v[0], s.v[1], s.v[2], s.v[3]});
+  s.lo += lo * dt_s;
+  s.hi += hi * dt_s;
+  // The least distance the joint must have covered: only when the whole bracket has one sign.
+  const double least_speed = lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
+  s.expected_since_change += least_speed * dt_s;
+}
+
+void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs& in, double dt_s) noexcept {
+  (void)dt_s;
+  JointState& s = state_[j];
+  const PlausibilityJoint& joint = joints_[j];
+  if (!in.valid[j]) {
+    // No data: nothing to compare, and the history must not bridge the gap.
+    s.have_sample = false;
+    s.count = 0;
+    s.frozen = 0;
+    s.expected_since_change = 0.0;
+    return;
+  }
+  if (!in.updated[j] && s.have_sample) return;
+  const double raw = in.position[j];
+  const double margin = joint.prismatic ? config_.range_margin_m : config_.range_margin_rad;
+  if (!std::isfinite(raw) || (!joint.continuous && (raw < joint.position_min - margin || raw > joint.position_max + margin))) {
+    raise(PlausibilityFault::EncoderOutOfRange, static_cast<int>(j), in.now_us);
+    return;
+  }
+  if (!s.have_sample) {
+    s.have_sample = true;
+    s.raw = raw;
+    s.sample_us = in.sample_us[j];
+    s.q = raw;
+    s.count = 0;
+    s.frozen = 0;
+    s.expected_since_change = 0.0;
+    return;
+  }
+  double delta = raw - s.raw;
+  if (joint.continuous) delta = std::remainder(delta, kTwoPi);
+  const double interval_s = static_cast<double>(std::max<std::int64_t>(in.sample_us[j] - s.sample_us, 0) + config_.step_time_allowance_us) * 1e-6;
+  const double noise = joint.prismatic ? config_.step_noise_m : config_.step_noise_rad;
+  if (std::abs(delta) > config_.step_speed_factor * joint.max_velocity * interval_s + noise) {
+    raise(PlausibilityFault::EncoderStep, static_cast<int>(j), in.now_us);
+    return;
+  }
+  if (raw == s.raw) {
+    ++s.frozen;
+    const double travel = joint.prismatic ? config_.stuck_travel_m : config_.stuck_travel_rad;
+    if (s.frozen >= config_.stuck_samples && s.expected_since_change > travel) {
+      raise(PlausibilityFault::EncoderStuck, static_cast<int>(j), in.now_us);
+      return;
+    }
+  } else {
+    s.frozen = 0;
+    s.expected_since_change = 0.0;
+  }
+  s.raw = raw;
+  s.sample_us = in.sample_us[j];
+  s.q += delta;
+}
+
+void PlausibilityMonitor::check_window(std::size_t j, std::int64_t now_us) noexcept {
+  JointState& s = state_[j];
+  if (!s.have_sample) return;
+  const PlausibilityJoint& joint = joints_[j];
+  if (s.count > 0) {
+    // The oldest entry within the window: the measured travel since then against the model's.
+    const std::size_t oldest = (s.head + kWindowEntries - s.count) % kWindowEntries;
+    std::size_t k = oldest;
+    for (std::size_t i = 0; i < s.count; ++i, k = (k + 1) % kWindowEntries) {
+      if (now_us - s.ring[k].t_us <= config_.window_us) break;
+    }
+    const Entry& then = s.ring[k];
+    if (now_us - then.t_us <= config_.window_us) {
+      const double travel = s.q - then.q;
+      const double tolerance = joint.prismatic ? config_.tolerance_m : config_.tolerance_rad;
+      const double lo = s.lo - then.lo;
+      const double hi = s.hi - then.hi;
+      const double below = lo - travel;  // > 0: less far in + than the least the model allows
+      const double above = travel - hi;  // > 0: further in + than the most the model allows
+      peak_window_ratio_ = std::max(peak_window_ratio_, std::max(below, above) / tolerance);
+      if (below > tolerance || above > tolerance) {
+        // Short of a motion the command asks for, without reversing, is not following; beyond it,
+        // against it, or motion where none was commanded is a runaway.
+        const bool short_of_plus = below > tolerance && lo > 0.0 && travel >= -tolerance;
+        const bool short_of_minus = above > tolerance && hi < 0.0 && travel <= tolerance;
+        raise(short_of_plus || short_of_minus ? PlausibilityFault::JointNotFollowing : PlausibilityFault::JointRunaway,
+              static_cast<int>(j), now_us);
+        return;
+      }
+    }
+  }
+}
+
+void PlausibilityMonitor::check_valve(const PlausibilityInputs& in, double dt_s) noexcept {
+  if (!in.valve_active) {
+    counter_known_ = false;
+    for (std::size_t j = 0; j < n_; ++j) {
+      state_[j].spool_model = 0.0;
+      state_[j].spool_model_prev = 0.0;
+      state_[j].mismatch_since_us = -1;
+    }
+    return;
+  }
+  const double ramp = config_.valve_ramp_per_s * dt_s;
+  for (std::size_t j = 0; j < n_; ++j) {
+    JointState& s = state_[j];
+    // The report answers the previous cycle's SYNC: it may show the command one step behind.
+    s.spool_model_prev = s.spool_model;
+    s.spool_model += std::clamp(in.valve_commanded[j] - s.spool_model, -ramp, ramp);
+    const double error = std::min(std::abs(in.valve_applied[j] - s.spool_model), std::abs(in.valve_applied[j] - s.spool_model_prev));
+    if (error <= config_.valve_tolerance) {
+      s.mismatch_since_us = -1;
+    } else if (s.mismatch_since_us < 0) {
+      s.mismatch_since_us = in.now_us;
+    } else if (in.now_us - s.mismatch_since_us >= config_.valve_mismatch_us) {
+      raise(PlausibilityFault::ValveNotObeying, static_cast<int>(j), in.now_us);
+      return;
+    }
+  }
+  if (!counter_known_ || in.valve_command_counter != last_counter_) {
+    counter_known_ = true;
+    last_counter_ = in.valve_command_counter;
+    counter_change_us_ = in.now_us;
+    sent_at_change_ = in.valve_commands_sent;
+    return;
+  }
+  // Commands keep going out and the node counts none of them.
+  if (in.now_us - counter_change_us_ >= config_.valve_counter_timeout_us && in.valve_commands_sent - sent_at_change_ >= 5U) {
+    raise(PlausibilityFault::ValveNotObeying, -1, in.now_us);
+  }
+}
+
+const PlausibilityResult& PlausibilityMonitor::update(const PlausibilityInputs& in) noexcept {
+  if (result_.fault != PlausibilityFault::None) return result_;
+  const double dt_s = started_ ? static_cast<double>(std::max<std::int64_t>(in.now_us - last_us_, 0)) * 1e-6 : 0.0;
+  started_ = true;
+  last_us_ = in.now_us;
+  const bool push = in.now_us - last_push_us_ >= push_every_us_;
+  for (std::size_t j = 0; j < n_; ++j) {
+    JointState& s = state_[j];
+    // The sample read now shows the machine at the previous SYNC: compare it with the model's
+    // travel up to then, before this cycle's step is added.
+    const double lo_before = s.lo;
+    const double hi_before = s.hi;
+    update_models(s, joints_[j], in.drive_enabled ? in.commanded_velocity[j] : 0.0, dt_s);
+    check_samples(j, in, dt_s);
+    if (result_.fault != PlausibilityFault::None) return result_;
+    const double lo_now = s.lo;
+    const double hi_now = s.hi;
+    s.lo = lo_before;
+    s.hi = hi_before;
+    check_window(j, in.now_us);
+    if (result_.fault != PlausibilityFault::None) return result_;
+    if (push && s.have_sample) {
+      s.ring[s.head] = {in.now_us, s.q, s.lo, s.hi};
+      s.head = (s.head + 1) % kWindowEntries;
+      s.count = std::min(s.count + 1, kWindowEntries);
+    }
+    s.lo = lo_now;
+    s.hi = hi_now;
+  }
+  if (push) last_push_us_ = in.now_us;
+  check_valve(in, dt_s);
+  return result_;
+}
+
+}  // namespace mgc::guidance

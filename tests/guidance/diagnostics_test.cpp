@@ -1,0 +1,304 @@
+// SPDX-License-Identifier: Apache-2.0
+// The plausibility monitor (docs/diagnostics.md) on a joint simulated here, independently of the
+// monitor's own model: a valve ramp, a deadband and a first-order lag with an acceleration limit,
+// an encoder quantised to the protocol's resolution. Healthy motion raises nothing; each fault is
+// named, with its joint, within its documented time.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <vector>
+
+#include "mgc/guidance/diagnostics.hpp"
+
+using namespace mgc::guidance;
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr std::int64_t kCycleUs = 10'000;
+
+//! The boom of the thesis crane: 1.04 deg/s, 0.52 deg/s^2, 0..80 deg.
+PlausibilityJoint boom() { return {1.04 * kDeg, 0.52 * kDeg, 0.0, 80.0 * kDeg, false, false}; }
+//! Its swing: continuous, 3.75 deg/s, 1.875 deg/s^2.
+PlausibilityJoint swing() { return {3.75 * kDeg, 1.875 * kDeg, -std::numbers::pi, std::numbers::pi, true, false}; }
+
+//! One joint as a hydraulic drive: the valve ramps its spool at 10/s toward the command, no flow in
+//! a 3 % deadband (which the command mapping compensates), a 0.15 s lag with the acceleration limit.
+struct Drive {
+  PlausibilityJoint joint;
+  double lag_s = 0.15;
+  double position = 0.0;
+  double velocity = 0.0;
+  double spool = 0.0;
+  bool ignore = false;     //!< the valve keeps its last spool
+  bool jammed = false;     //!< the joint does not move whatever the valve does
+
+  void step(double command, double dt_s) {
+    const double target_spool = ignore ? spool : std::clamp(command / joint.max_velocity, -1.0, 1.0);
+    spool += std::clamp(target_spool - spool, -10.0 * dt_s, 10.0 * dt_s);
+    const double target_v = jammed ? 0.0 : spool * joint.max_velocity;
+    const double dv = std::clamp((target_v - velocity) * (1.0 - std::exp(-dt_s / lag_s)), -joint.max_acceleration * dt_s,
+                                 joint.max_acceleration * dt_s);
+    velocity += dv;
+    position += velocity * dt_s;
+  }
+};
+
+//! A joint, its drive, the encoder and the monitor stepped in 10 ms cycles, the drive in 1 ms.
+struct Bench {
+  std::vector<PlausibilityJoint> joints;
+  std::vector<Drive> drives;
+  PlausibilityMonitor monitor;
+  std::int64_t now_us = 1'000'000;
+  std::vector<double> command;   //!< what the loop commands this cycle [rad/s | m/s]
+  std::vector<double> previous;  //!< last cycle's command, which the valve applies now
+  std::vector<double> encoder;   //!< last encoder sample
+  std::vector<bool> frozen;      //!< the encoder repeats its sample
+  std::vector<double> lie;       //!< added to the sample [rad | m]
+  std::uint8_t counter = 0;
+  std::uint32_t sent = 0;
+  bool counter_stalls = false;
+
+  explicit Bench(std::vector<PlausibilityJoint> j, double start = 40.0 * kDeg)
+      : joints(std::move(j)), monitor(joints), command(joints.size()), previous(joints.size()),
+        encoder(joints.size()), frozen(joints.size()), lie(joints.size()) {
+    for (const PlausibilityJoint& p : joints) drives.push_back({p, 0.15, start});
+  }
+
+  static double quantise(double value, bool prismatic) {
+    const double q = prismatic ? 1e-4 : 0.001 * kDeg;
+    return std::round(value / q) * q;
+  }
+
+  //! One cycle: the drives run 10 ms on the previous command, the encoder samples, the monitor checks.
+  const PlausibilityResult& cycle() {
+    for (int k = 0; k < 10; ++k) {
+      for (std::size_t j = 0; j < drives.size(); ++j) drives[j].step(previous[j], 1e-3);
+    }
+    now_us += kCycleUs;
+    PlausibilityInputs in;
+    in.now_us = now_us;
+    in.drive_enabled = true;
+    in.valve_active = true;
+    for (std::size_t j = 0; j < drives.size(); ++j) {
+      if (!frozen[j]) encoder[j] = quantise(drives[j].position + lie[j], joints[j].prismatic);
+      in.position[j] = encoder[j];
+      in.sample_us[j] = now_us - 2'000;
+      in.valid[j] = true;
+      in.updated[j] = true;
+      in.commanded_velocity[j] = previous[j];
+      in.valve_commanded[j] = std::clamp(previous[j] / joints[j].max_velocity, -1.0, 1.0);
+      in.valve_applied[j] = drives[j].spool;
+    }
+    if (!counter_stalls) ++counter;
+    in.valve_command_counter = counter;
+    in.valve_commands_sent = ++sent;
+    const PlausibilityResult& r = monitor.update(in);
+    previous = command;
+    return r;
+  }
+
+  //! Runs for seconds with command() giving each cycle's command from the time since start.
+  template <class Command>
+  const PlausibilityResult& run(double seconds, Command command_at) {
+    const auto cycles = static_cast<int>(std::lround(seconds * 1e6 / kCycleUs));
+    for (int c = 0; c < cycles; ++c) {
+      command_at(command);
+      cycle();
+      if (monitor.result().fault != PlausibilityFault::None) break;
+    }
+    return monitor.result();
+  }
+};
+
+//! A luffing move as the controller makes it: full speed (80 %), a ramp up and a ramp down at the
+//! acceleration limit, with a feedback correction on top.
+double luff(double t_s, const PlausibilityJoint& j) {
+  const double v = 0.8 * j.max_velocity;
+  const double ramp_s = v / j.max_acceleration;
+  if (t_s < ramp_s) return -j.max_acceleration * t_s;
+  if (t_s < 6.0) return -v;
+  if (t_s < 6.0 + ramp_s) return -v + j.max_acceleration * (t_s - 6.0);
+  return 0.0;
+}
+
+}  // namespace
+
+TEST_CASE("healthy motion, stops and reversals raise no plausibility fault", "[guidance][diagnostics]") {
+  Bench b({boom(), swing()});
+  double t = 0.0;
+  const PlausibilityResult& r = b.run(20.0, [&](std::vector<double>& cmd) {
+    cmd[0] = luff(t, b.joints[0]);
+    // The swing reverses every 3 s at full command: a step the rate limiter would not even allow.
+    cmd[1] = (static_cast<int>(t / 3.0) % 2 == 0 ? 1.0 : -1.0) * b.joints[1].max_velocity * (t < 18.0 ? 1.0 : 0.0);
+    t += 0.01;
+  });
+  CHECK(r.fault == PlausibilityFault::None);
+  // The checks kept a margin: the largest excursion used under two thirds of a threshold.
+  CHECK(b.monitor.peak_window_ratio() < 0.67);
+  WARN("healthy: peak window ratio " << b.monitor.peak_window_ratio());
+}
+
+TEST_CASE("a slower or faster actuator within the model's bounds is not a fault", "[guidance][diagnostics]") {
+  for (const double lag_s : {0.08, 0.3}) {
+    CAPTURE(lag_s);
+    Bench b({boom()});
+    b.drives[0].lag_s = lag_s;
+    double t = 0.0;
+    const PlausibilityResult& r = b.run(10.0, [&](std::vector<double>& cmd) {
+      cmd[0] = luff(t, b.joints[0]);
+      t += 0.01;
+    });
+    CHECK(r.fault == PlausibilityFault::None);
+  }
+}
+
+TEST_CASE("a stuck encoder is found within 0.3 s and under 0.5 deg of travel", "[guidance][diagnostics]") {
+  Bench b({boom()});
+  double t = 0.0;
+  const auto command = [&](std::vector<double>& cmd) {
+    cmd[0] = luff(t, b.joints[0]);
+    t += 0.01;
+  };
+  REQUIRE(b.run(4.0, command).fault == PlausibilityFault::None);
+  const double fault_position = b.drives[0].position;
+  const std::int64_t fault_us = b.now_us;
+  b.frozen[0] = true;
+  const PlausibilityResult& r = b.run(2.0, command);
+  REQUIRE(r.fault == PlausibilityFault::EncoderStuck);
+  CHECK(r.joint == 0);
+  CHECK_FALSE(r.cut_required);
+  const double detect_s = static_cast<double>(r.detected_us - fault_us) * 1e-6;
+  const double travel_deg = std::abs(b.drives[0].position - fault_position) / kDeg;
+  CAPTURE(detect_s, travel_deg);
+  CHECK(detect_s <= 0.3);
+  CHECK(travel_deg < 0.5);
+}
+
+TEST_CASE("a lying encoder: a forged step, a value out of range, a drift at rest", "[guidance][diagnostics]") {
+  SECTION("a 20 deg step on the swing is a step no actuator makes") {
+    Bench b({swing()}, 78.4 * kDeg);
+    REQUIRE(b.run(1.0, [](std::vector<double>& cmd) { cmd[0] = 0.0; }).fault == PlausibilityFault::None);
+    b.lie[0] = -20.0 * kDeg;
+    const std::int64_t fault_us = b.now_us;
+    const PlausibilityResult& r = b.run(1.0, [](std::vector<double>& cmd) { cmd[0] = 0.0; });
+    CHECK(r.fault == PlausibilityFault::EncoderStep);
+    CHECK(r.joint == 0);
+    CHECK(r.detected_us - fault_us == kCycleUs);
+  }
+  SECTION("a step of 0.1 deg at full speed is beyond the actuator") {
+    Bench b({boom()});
+    double t = 0.0;
+    const auto command = [&](std::vector<double>& cmd) {
+      cmd[0] = luff(t, b.joints[0]);
+      t += 0.01;
+    };
+    REQUIRE(b.run(3.0, command).fault == PlausibilityFault::None);
+    b.lie[0] = 0.1 * kDeg;
+    CHECK(b.run(0.1, command).fault == PlausibilityFault::EncoderStep);
+  }
+  SECTION("INT32 extremes are beyond the end stops") {
+    Bench b({boom()});
+    REQUIRE(b.run(0.5, [](std::vector<double>& cmd) { cmd[0] = 0.0; }).fault == PlausibilityFault::None);
+    b.lie[0] = 2147483.647 * kDeg;
+    const PlausibilityResult& r = b.run(0.1, [](std::vector<double>& cmd) { cmd[0] = 0.0; });
+    CHECK(r.fault == PlausibilityFault::EncoderOutOfRange);
+  }
+  SECTION("a drift of 1 deg/s on a joint at rest: motion no command allows") {
+    Bench b({boom()});
+    REQUIRE(b.run(1.0, [](std::vector<double>& cmd) { cmd[0] = 0.0; }).fault == PlausibilityFault::None);
+    const std::int64_t fault_us = b.now_us;
+    double lie = 0.0;
+    const PlausibilityResult& r = b.run(2.0, [&](std::vector<double>& cmd) {
+      cmd[0] = 0.0;
+      lie += 1.0 * kDeg * 0.01;
+      b.lie[0] = lie;
+    });
+    CHECK(r.fault == PlausibilityFault::JointRunaway);
+    CHECK(r.cut_required);
+    CHECK(static_cast<double>(r.detected_us - fault_us) * 1e-6 <= 0.3);
+  }
+}
+
+TEST_CASE("a valve that ignores commands: its applied spools, its counter, the joint's motion", "[guidance][diagnostics]") {
+  double t = 0.0;
+  const auto luffing = [&t](std::vector<double>& cmd) {
+    cmd[0] = t < 4.0 ? luff(t, boom()) : 0.0;  // the controller stops at 4 s
+    t += 0.01;
+  };
+  SECTION("the applied spool stays while the command goes to zero") {
+    Bench b({boom()});
+    REQUIRE(b.run(4.0, luffing).fault == PlausibilityFault::None);
+    b.drives[0].ignore = true;
+    const std::int64_t fault_us = b.now_us;
+    const PlausibilityResult& r = b.run(2.0, luffing);
+    CHECK(r.fault == PlausibilityFault::ValveNotObeying);
+    CHECK(r.joint == 0);
+    CHECK(r.cut_required);
+    CHECK(static_cast<double>(r.detected_us - fault_us) * 1e-6 <= 0.3);
+  }
+  SECTION("the counter stops while commands go out") {
+    Bench b({boom()});
+    REQUIRE(b.run(2.0, luffing).fault == PlausibilityFault::None);
+    b.counter_stalls = true;
+    const std::int64_t fault_us = b.now_us;
+    const PlausibilityResult& r = b.run(1.0, luffing);
+    CHECK(r.fault == PlausibilityFault::ValveNotObeying);
+    CHECK(r.joint == -1);
+    CHECK(static_cast<double>(r.detected_us - fault_us) * 1e-6 <= 0.15);
+  }
+}
+
+TEST_CASE("a jammed joint that the valve drives is not following", "[guidance][diagnostics]") {
+  Bench b({boom()});
+  double t = 0.0;
+  const auto command = [&](std::vector<double>& cmd) {
+    cmd[0] = luff(t, b.joints[0]);
+    t += 0.01;
+  };
+  REQUIRE(b.run(3.0, command).fault == PlausibilityFault::None);
+  b.drives[0].jammed = true;
+  // The encoder is alive: it flickers by one count, so the value is never frozen.
+  int flick = 0;
+  const PlausibilityResult& r = b.run(2.0, [&](std::vector<double>& cmd) {
+    command(cmd);
+    b.lie[0] = (++flick % 2) * 0.001 * kDeg;
+  });
+  CHECK(r.fault == PlausibilityFault::JointNotFollowing);
+  CHECK_FALSE(r.cut_required);
+}
+
+TEST_CASE("the swing crossing the half turn is no step, and reset() forgets a latched fault", "[guidance][diagnostics]") {
+  Bench b({swing()}, 170.0 * kDeg);
+  // The encoder of a slew ring reports within one turn: wrap what it reports.
+  const PlausibilityResult& r = b.run(8.0, [&](std::vector<double>& cmd) {
+    cmd[0] = b.joints[0].max_velocity;
+    b.lie[0] = std::remainder(b.drives[0].position, 2.0 * std::numbers::pi) - b.drives[0].position;
+  });
+  CHECK(r.fault == PlausibilityFault::None);
+  CHECK(std::abs(b.drives[0].position) > 185.0 * kDeg);
+
+  b.lie[0] += 30.0 * kDeg;
+  REQUIRE(b.run(0.05, [](std::vector<double>& cmd) { cmd[0] = 0.0; }).fault == PlausibilityFault::EncoderStep);
+  b.monitor.reset();
+  CHECK(b.monitor.result().fault == PlausibilityFault::None);
+  CHECK(b.monitor.peak_window_ratio() == 0.0);
+}
+
+TEST_CASE("the plausibility monitor refuses joints and settings it cannot work with", "[guidance][diagnostics]") {
+  std::vector<PlausibilityJoint> none;
+  CHECK_THROWS_AS(PlausibilityMonitor(none), std::invalid_argument);
+  std::vector<PlausibilityJoint> still{{0.0, 1.0, 0.0, 1.0, false, false}};
+  CHECK_THROWS_AS(PlausibilityMonitor(still), std::invalid_argument);
+  std::vector<PlausibilityJoint> ok{boom()};
+  PlausibilityConfig c;
+  c.lag_max_s = 0.01;
+  CHECK_THROWS_AS(PlausibilityMonitor(ok, c), std::invalid_argument);
+  c = {};
+  c.tolerance_rad = -1.0;
+  CHECK_THROWS_AS(PlausibilityMonitor(ok, c), std::invalid_argument);
+  CHECK_NOTHROW(PlausibilityMonitor(ok));
+}
