@@ -77,6 +77,15 @@ guidance::SupervisorConfig supervisor_config(guidance::SupervisorConfig c, const
   return c;
 }
 
+std::vector<guidance::PlausibilityJoint> plausibility_joints(const planning::MachineModel& model) {
+  std::vector<guidance::PlausibilityJoint> joints;
+  for (const planning::JointSpec& j : model.joints()) {
+    joints.push_back({j.max_velocity, j.max_acceleration, j.position_min, j.position_max, j.continuous,
+                      j.type == planning::JointType::Prismatic});
+  }
+  return joints;
+}
+
 RateLimiter make_limiter(const planning::MachineModel& model) {
   const auto limits = rate_limits_from(model.joints(), JerkLimit::Off);
   return RateLimiter(std::span<const RateLimits>(limits.data(), static_cast<std::size_t>(model.dof())));
@@ -98,6 +107,7 @@ enum AlertKind : std::size_t {
   kAlertTracking,
   kAlertEnvelope,
   kAlertApproach,
+  kAlertCutoff,
 };
 
 std::unique_ptr<guidance::Envelope> make_envelope(const planning::Scenario& scenario, const planning::MachineModel& model) {
@@ -170,6 +180,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       envelope_(make_envelope(scenario_, *model_)),
       stop_check_(*safety_world_, envelope_.get(), config_.stop_check),
       supervisor_(supervisor_config(config.supervisor, scenario_)),
+      monitor_(plausibility_joints(*model_), config.plausibility),
       limiter_(make_limiter(*model_)),
       n_(model_->dof()) {
   if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
@@ -648,9 +659,21 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
     predict_approach();
   }
 
+  // The sensors and the valve against the previous cycle's command, which the valve applies now.
+  const guidance::PlausibilityResult& plausible = monitor_.update(
+      plausibility_inputs(s, std::span<const double>(last_command_.data(), static_cast<std::size_t>(n_)), pilot_enabled_));
+  if (plausible.fault != guidance::PlausibilityFault::None && stats_.plausibility_fault == guidance::PlausibilityFault::None) {
+    stats_.plausibility_fault = plausible.fault;
+    stats_.plausibility_joint = plausible.joint;
+    stats_.plausibility_detected_us = plausible.detected_us;
+  }
+  stats_.plausibility_peak_ratio = std::max(stats_.plausibility_peak_ratio, monitor_.peak_window_ratio());
+
   guidance::SupervisorInputs in;
   in.now_us = now_us_;
   in.sensing = sensing_inputs(s);
+  in.sensing.plausibility = plausible.fault;
+  in.sensing.plausibility_joint = plausible.joint;
   if (have_reading_) {
     in.safety.stop_check = check_.status;
     in.safety.warning_speed_scale = check_.speed_scale;
@@ -743,12 +766,24 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
     (void)limiter_.update(std::span<const double>(v_target_.data(), static_cast<std::size_t>(n_)), dt_s);
   }
 
+  // An acknowledged fault starts afresh: the machine is at rest and INIT checks every device again.
+  if (out.reset_latches) monitor_.reset();
+  const bool pilot = out.state != guidance::SupervisorState::Fault && !monitor_.result().cut_required;
+  if (pilot_enabled_ && !pilot) ++stats_.pilot_cuts;
+  pilot_enabled_ = pilot;
+  const std::span<const double> command = limiter_.velocity();
+  for (int j = 0; j < n_; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    last_command_[k] = k < command.size() ? command[k] : 0.0;
+  }
+
   fill_snapshot(s, out);
 
   ControllerOutput result;
   result.velocity = limiter_.velocity();
   result.start_nodes = out.start_nodes;
   result.reset_watchdog = out.reset_latches;
+  result.pilot_enable = pilot_enabled_;
   result.supervisor = out;
   return result;
 }
@@ -920,7 +955,12 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
         envelope_result_.violated || !envelope_ ? 0.0 : envelope_->config().slowdown_band_m, envelope_alert_index(acting));
   const bool fault = out.state == SupervisorState::Fault;
   raise(kAlertFault, fault, A::SEVERITY_FAULT, fault_source(supervisor_.reason()), A::CLEAR_ON_OPERATOR_ACK, A::UNIT_NONE,
-        static_cast<double>(static_cast<int>(supervisor_.reason())), kNaN, -1);
+        static_cast<double>(static_cast<int>(supervisor_.reason())), kNaN, supervisor_.reason_value());
+  // The second channel asked to cut and pilot pressure stays (or the node faults): only the
+  // machine's own emergency stop is left, and the operator must know at once, in any state.
+  const bool cutoff_failed = cutoff_health(s) == guidance::CutoffHealth::Failed;
+  raise(kAlertCutoff, cutoff_failed, A::SEVERITY_FAULT, A::SOURCE_SENSING, A::CLEAR_ON_OPERATOR_ACK, A::UNIT_NONE,
+        static_cast<double>(static_cast<int>(guidance::TransitionReason::CutoffFailed)), kNaN, -1);
   raise(kAlertEstop, out.state == SupervisorState::Estop, A::SEVERITY_STOP, A::SOURCE_OPERATOR, A::CLEAR_ON_OPERATOR_ACK,
         A::UNIT_NONE, kNaN, kNaN, -1);
   const bool planner_alert = out.state == SupervisorState::Replanning || supervisor_.retry_pending();

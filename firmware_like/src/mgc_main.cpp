@@ -221,6 +221,7 @@ int main(int argc, char** argv) {
           controller.step(s, timing.index == 0 ? period_us : timing.dt_us, cmd, executive.watchdog_tripped());
       if (out.start_nodes) (void)hal.send_nmt(hal::canopen::NmtCommand::Start, 0);
       if (out.reset_watchdog) executive.reset_watchdog();
+      hal.set_pilot_enabled(out.pilot_enable);
       (void)hal.write(out.velocity, timing.start_us);
 
       if (out.supervisor.transitioned) {
@@ -340,6 +341,14 @@ int main(int argc, char** argv) {
                   st.retreats_in_contact);
     }
     if (st.paths_shortened > 0) std::printf("mgc: paths: %d repaired or escape paths shortened by %d waypoints\n", st.paths_shortened, st.waypoints_removed);
+    {
+      std::printf("mgc: diagnostics: %s", guidance::to_string(st.plausibility_fault));
+      if (st.plausibility_fault != guidance::PlausibilityFault::None) {
+        std::printf(" (joint %d) at %.2f s", st.plausibility_joint, static_cast<double>(st.plausibility_detected_us - start_us) * 1e-6);
+      }
+      std::printf(", motion checks' peak %.0f %% of their threshold, pilot pressure cut %d times\n", 100.0 * st.plausibility_peak_ratio,
+                  st.pilot_cuts);
+    }
     if (controller.has_envelope()) {
       std::printf("mgc: envelope: least distance of a monitored point to a limit while moving %.2f m, motions slowed toward a "
                   "limit in %" PRIu64 " cycles\n",

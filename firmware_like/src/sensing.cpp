@@ -33,11 +33,49 @@ guidance::ValveHealth valve_health(const hal::SensorSnapshot& s) noexcept {
 
 }  // namespace
 
+guidance::CutoffHealth cutoff_health(const hal::SensorSnapshot& s) noexcept {
+  if (s.cutoff.health == hal::Health::Missing) return guidance::CutoffHealth::Missing;
+  const bool emcy = s.cutoff.health == hal::Health::Faulted;
+  if (!s.cutoff_status_valid) return emcy ? guidance::CutoffHealth::Failed : guidance::CutoffHealth::NotReady;
+  const hal::pdo::CutoffStatus& st = s.cutoff_status;
+  if (st.state == hal::pdo::CutoffState::Fault) return guidance::CutoffHealth::Failed;
+  // The pressure switch is the truth: pressure behind a dump valve that should be open means the
+  // second channel does not work.
+  if (st.pressure) {
+    return st.state == hal::pdo::CutoffState::Enabled && !emcy ? guidance::CutoffHealth::Ready : guidance::CutoffHealth::Failed;
+  }
+  // No pressure: cut, whether asked for or after a loss the node signalled (a restart clears it).
+  return guidance::CutoffHealth::Cut;
+}
+
+guidance::PlausibilityInputs plausibility_inputs(const hal::SensorSnapshot& s, std::span<const double> commanded_velocity,
+                                                 bool pilot_enabled) noexcept {
+  guidance::PlausibilityInputs in;
+  in.now_us = s.t_us;
+  const std::size_t joints = std::min<std::size_t>(s.num_joints, in.position.size());
+  for (std::size_t j = 0; j < joints; ++j) {
+    const hal::JointReading& r = s.joints[j];
+    in.position[j] = r.position;
+    in.sample_us[j] = r.t_us;
+    in.valid[j] = r.valid;
+    in.updated[j] = r.updated;
+    in.commanded_velocity[j] = j < commanded_velocity.size() ? commanded_velocity[j] : 0.0;
+    in.valve_applied[j] = s.valve_applied_fraction[j];
+    in.valve_commanded[j] = s.valve_command_fraction[j];
+  }
+  in.valve_active = s.valve_active();
+  in.drive_enabled = in.valve_active && pilot_enabled;
+  in.valve_command_counter = s.valve_status.command_counter;
+  in.valve_commands_sent = s.valve_commands_sent;
+  return in;
+}
+
 guidance::SensingInputs sensing_inputs(const hal::SensorSnapshot& snapshot) noexcept {
   guidance::SensingInputs in;
   const std::size_t joints = std::min<std::size_t>(snapshot.num_joints, in.joint.size());
   for (std::size_t j = 0; j < joints; ++j) in.joint[j] = device_health(snapshot.joints[j].health);
   in.valve = valve_health(snapshot);
+  in.cutoff = cutoff_health(snapshot);
   in.bus_off = snapshot.bus_state == hal::BusState::BusOff;
   in.uwb_gateway = device_health(snapshot.uwb_gateway.health);
   for (std::size_t i = 0; i < snapshot.num_tags; ++i) {

@@ -40,7 +40,15 @@ const char* device_text(TransitionReason reason) noexcept {
     case TransitionReason::ValveFailSafe:
     case TransitionReason::ValveFaulted:
     case TransitionReason::ValveNotActive:
-    case TransitionReason::ValveStatusStale: return "valve";
+    case TransitionReason::ValveStatusStale:
+    case TransitionReason::ValveNotObeying: return "valve";
+    case TransitionReason::EncoderStuck:
+    case TransitionReason::EncoderImplausible:
+    case TransitionReason::JointNotFollowing:
+    case TransitionReason::JointRunaway: return "joint";
+    case TransitionReason::CutoffLost:
+    case TransitionReason::CutoffFailed:
+    case TransitionReason::CutoffNotReady: return "cut-off";
     case TransitionReason::BusOff: return "can bus";
     case TransitionReason::UwbGatewayLost: return "uwb gateway";
     case TransitionReason::UwbSilent: return "uwb tags";
@@ -76,6 +84,30 @@ TransitionReason valve_reason(ValveHealth valve) noexcept {
     case ValveHealth::Faulted: return TransitionReason::ValveFaulted;
     case ValveHealth::StatusStale: return TransitionReason::ValveStatusStale;
     case ValveHealth::Active: break;
+  }
+  return TransitionReason::None;
+}
+
+TransitionReason cutoff_reason(CutoffHealth cutoff) noexcept {
+  switch (cutoff) {
+    case CutoffHealth::Missing: return TransitionReason::CutoffLost;
+    case CutoffHealth::Failed: return TransitionReason::CutoffFailed;
+    case CutoffHealth::NotReady:
+    case CutoffHealth::Cut: return TransitionReason::CutoffNotReady;
+    case CutoffHealth::Ready: break;
+  }
+  return TransitionReason::None;
+}
+
+TransitionReason plausibility_reason(PlausibilityFault fault) noexcept {
+  switch (fault) {
+    case PlausibilityFault::None: break;
+    case PlausibilityFault::EncoderOutOfRange:
+    case PlausibilityFault::EncoderStep: return TransitionReason::EncoderImplausible;
+    case PlausibilityFault::EncoderStuck: return TransitionReason::EncoderStuck;
+    case PlausibilityFault::JointNotFollowing: return TransitionReason::JointNotFollowing;
+    case PlausibilityFault::JointRunaway: return TransitionReason::JointRunaway;
+    case PlausibilityFault::ValveNotObeying: return TransitionReason::ValveNotObeying;
   }
   return TransitionReason::None;
 }
@@ -142,6 +174,14 @@ const char* to_string(TransitionReason reason) noexcept {
     case TransitionReason::UwbSilent: return "UwbSilent";
     case TransitionReason::WatchdogTripped: return "WatchdogTripped";
     case TransitionReason::StartBlocked: return "StartBlocked";
+    case TransitionReason::EncoderStuck: return "EncoderStuck";
+    case TransitionReason::EncoderImplausible: return "EncoderImplausible";
+    case TransitionReason::JointNotFollowing: return "JointNotFollowing";
+    case TransitionReason::JointRunaway: return "JointRunaway";
+    case TransitionReason::ValveNotObeying: return "ValveNotObeying";
+    case TransitionReason::CutoffLost: return "CutoffLost";
+    case TransitionReason::CutoffFailed: return "CutoffFailed";
+    case TransitionReason::CutoffNotReady: return "CutoffNotReady";
   }
   return "unknown";
 }
@@ -220,9 +260,13 @@ Supervisor::Cause Supervisor::running_fault(const SupervisorInputs& in) const no
   // Bus-off first: it explains every other loss at once.
   if (s.bus_off) return {TransitionReason::BusOff, -1};
   if (const TransitionReason r = valve_reason(s.valve); r != TransitionReason::None) return {r, -1};
+  if (const TransitionReason r = cutoff_reason(s.cutoff); r != TransitionReason::None) return {r, -1};
   for (int j = 0; j < config_.num_joints; ++j) {
     const TransitionReason r = encoder_reason(s.joint[static_cast<std::size_t>(j)]);
     if (r != TransitionReason::None) return {r, j};
+  }
+  if (const TransitionReason r = plausibility_reason(s.plausibility); r != TransitionReason::None) {
+    return {r, s.plausibility_joint};
   }
   if (config_.uwb_required) {
     if (s.uwb_gateway != DeviceHealth::Alive) return {TransitionReason::UwbGatewayLost, -1};
@@ -241,6 +285,9 @@ Supervisor::Cause Supervisor::ack_blocker(const SupervisorInputs& in) const noex
   if (s.bus_off) return {TransitionReason::BusOff, -1};
   if (s.valve == ValveHealth::Missing) return {TransitionReason::ValveHeartbeatLost, -1};
   if (s.valve == ValveHealth::Faulted) return {TransitionReason::ValveFaulted, -1};
+  // A cut-off that does not cut must be repaired first: with it the machine has one channel left.
+  if (s.cutoff == CutoffHealth::Missing) return {TransitionReason::CutoffLost, -1};
+  if (s.cutoff == CutoffHealth::Failed) return {TransitionReason::CutoffFailed, -1};
   for (int j = 0; j < config_.num_joints; ++j) {
     const DeviceHealth h = s.joint[static_cast<std::size_t>(j)];
     if (h == DeviceHealth::Missing) return {TransitionReason::EncoderMissing, j};
@@ -259,7 +306,7 @@ Supervisor::Cause Supervisor::init_blocker(const SupervisorInputs& in) const noe
 
 bool Supervisor::all_nodes_heard(const SupervisorInputs& in) const noexcept {
   const SensingInputs& s = in.sensing;
-  if (s.bus_off || s.valve == ValveHealth::Missing) return false;
+  if (s.bus_off || s.valve == ValveHealth::Missing || s.cutoff == CutoffHealth::Missing) return false;
   for (int j = 0; j < config_.num_joints; ++j) {
     if (s.joint[static_cast<std::size_t>(j)] == DeviceHealth::Missing) return false;
   }

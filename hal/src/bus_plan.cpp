@@ -55,6 +55,8 @@ const char* to_string(MessageKind kind) noexcept {
     case MessageKind::ValveCommand: return "valve command";
     case MessageKind::ValveStatus: return "valve status";
     case MessageKind::ValveApplied: return "valve applied";
+    case MessageKind::CutoffCommand: return "cut-off command";
+    case MessageKind::CutoffStatus: return "cut-off status";
   }
   return "unknown";
 }
@@ -62,7 +64,10 @@ const char* to_string(MessageKind kind) noexcept {
 namespace {
 
 bool in_plan(const BusPlan& plan, std::uint8_t node) noexcept {
-  if (node == plan.controller_node_id || node == plan.uwb_gateway_node_id || node == plan.valve_node_id) return true;
+  if (node == plan.controller_node_id || node == plan.uwb_gateway_node_id || node == plan.valve_node_id ||
+      node == plan.cutoff_node_id) {
+    return true;
+  }
   for (std::size_t j = 0; j < plan.num_joints; ++j) {
     if (plan.encoders[j].node_id == node) return true;
   }
@@ -91,6 +96,11 @@ Classified classify(const CanFrame& frame, const BusPlan& plan) noexcept {
       case FunctionCode::Tpdo3: return {MessageKind::ValveApplied, node, 1};
       default: return {};
     }
+  }
+  if (node == plan.cutoff_node_id) {
+    if (code == FunctionCode::Rpdo1) return {MessageKind::CutoffCommand, node, -1};
+    if (code == FunctionCode::Tpdo1) return {MessageKind::CutoffStatus, node, -1};
+    return {};
   }
   if (code != FunctionCode::Tpdo1) return {};
   if (node == plan.uwb_gateway_node_id) return {MessageKind::UwbTagPosition, node, -1};

@@ -199,6 +199,68 @@ Result<ValveStatus> decode_valve_status(const CanFrame& frame) noexcept {
   return {Status::Ok, m};
 }
 
+Result<CanFrame> encode_cutoff_command(const CutoffCommand& message) noexcept {
+  if (!valid_node(message.node_id) ||
+      (message.command != PilotCommand::Cut && message.command != PilotCommand::Enable)) {
+    return {Status::OutOfRange, {}};
+  }
+  CanFrame f = CanFrame::standard(rpdo_cob_id(1, message.node_id), 1);
+  f.data[0] = static_cast<std::uint8_t>(message.command);
+  return {Status::Ok, f};
+}
+
+Result<CutoffCommand> decode_cutoff_command(const CanFrame& frame) noexcept {
+  const std::uint8_t node = node_id_of(frame.can_id);
+  if (const Status s = check_frame(frame, rpdo_cob_id(1, node), 1); s != Status::Ok) return {s, {}};
+  if (!valid_node(node)) return {Status::WrongId, {}};
+  const auto command = static_cast<PilotCommand>(frame.data[0]);
+  if (command != PilotCommand::Cut && command != PilotCommand::Enable) return {Status::OutOfRange, {}};
+  return {Status::Ok, {node, command}};
+}
+
+namespace {
+
+// Enabled exactly when there is no reason to cut; Fault only with the internal reason.
+bool cutoff_consistent(std::uint8_t state, std::uint8_t reason) noexcept {
+  if (reason > static_cast<std::uint8_t>(CutoffReason::InternalFault)) return false;
+  switch (static_cast<CutoffState>(state)) {
+    case CutoffState::Enabled: return reason == static_cast<std::uint8_t>(CutoffReason::None);
+    case CutoffState::Cut:
+      return reason != static_cast<std::uint8_t>(CutoffReason::None) &&
+             reason != static_cast<std::uint8_t>(CutoffReason::InternalFault);
+    case CutoffState::Fault: return reason == static_cast<std::uint8_t>(CutoffReason::InternalFault);
+  }
+  return false;
+}
+
+}  // namespace
+
+Result<CanFrame> encode_cutoff_status(const CutoffStatus& message) noexcept {
+  if (!valid_node(message.node_id) ||
+      !cutoff_consistent(static_cast<std::uint8_t>(message.state), static_cast<std::uint8_t>(message.reason))) {
+    return {Status::OutOfRange, {}};
+  }
+  CanFrame f = CanFrame::standard(tpdo_cob_id(1, message.node_id), 3);
+  f.data[0] = static_cast<std::uint8_t>(message.state);
+  f.data[1] = static_cast<std::uint8_t>(message.reason);
+  f.data[2] = message.pressure ? 1 : 0;
+  return {Status::Ok, f};
+}
+
+Result<CutoffStatus> decode_cutoff_status(const CanFrame& frame) noexcept {
+  const std::uint8_t node = node_id_of(frame.can_id);
+  if (const Status s = check_frame(frame, tpdo_cob_id(1, node), 3); s != Status::Ok) return {s, {}};
+  if (!valid_node(node)) return {Status::WrongId, {}};
+  if (!cutoff_consistent(frame.data[0], frame.data[1])) return {Status::OutOfRange, {}};
+  if ((frame.data[2] & 0xFEU) != 0) return {Status::ReservedBits, {}};
+  CutoffStatus m;
+  m.node_id = node;
+  m.state = static_cast<CutoffState>(frame.data[0]);
+  m.reason = static_cast<CutoffReason>(frame.data[1]);
+  m.pressure = frame.data[2] != 0;
+  return {Status::Ok, m};
+}
+
 Result<std::int16_t> fraction_to_permyriad(double fraction) noexcept {
   if (!(fraction >= -1.0 && fraction <= 1.0)) return {Status::OutOfRange, 0};
   return {Status::Ok, static_cast<std::int16_t>(std::lround(fraction * kValveFullScale))};

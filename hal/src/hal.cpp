@@ -36,12 +36,15 @@ Hal::Hal(CanBus& bus, const BusPlan& plan, std::span<const double> max_velocity)
   snap_.uwb_gateway.node_id = plan.uwb_gateway_node_id;
   snap_.valve.node_id = plan.valve_node_id;
   snap_.valve_status.node_id = plan.valve_node_id;
+  snap_.cutoff.node_id = plan.cutoff_node_id;
+  snap_.cutoff_status.node_id = plan.cutoff_node_id;
   tag_slot_.fill(-1);
 }
 
 DeviceStatus* Hal::device(std::uint8_t node_id) noexcept {
   if (node_id == plan_.uwb_gateway_node_id) return &snap_.uwb_gateway;
   if (node_id == plan_.valve_node_id) return &snap_.valve;
+  if (node_id == plan_.cutoff_node_id) return &snap_.cutoff;
   for (std::size_t j = 0; j < plan_.num_joints; ++j) {
     if (plan_.encoders[j].node_id == node_id) return &snap_.encoders[j];
   }
@@ -144,13 +147,23 @@ void Hal::handle(const TimedFrame& timed) noexcept {
       }
       return;
     }
+    case MessageKind::CutoffStatus: {
+      const auto st = pdo::decode_cutoff_status(f);
+      snap_.codec.record(st.status);
+      if (!st.ok()) return;
+      snap_.cutoff_status = st.value;
+      cutoff_status_t_us_ = timed.t_us;
+      return;
+    }
     case MessageKind::Nmt:
     case MessageKind::Sync:
-    case MessageKind::ValveCommand: {
+    case MessageKind::ValveCommand:
+    case MessageKind::CutoffCommand: {
       // Another master on the bus: decoded so that malformed ones are counted, otherwise ignored.
-      const Status s = c.kind == MessageKind::Nmt    ? canopen::decode_nmt(f).status
-                       : c.kind == MessageKind::Sync ? canopen::decode_sync(f).status
-                                                     : pdo::decode_valve_command(f).status;
+      const Status s = c.kind == MessageKind::Nmt            ? canopen::decode_nmt(f).status
+                       : c.kind == MessageKind::Sync         ? canopen::decode_sync(f).status
+                       : c.kind == MessageKind::ValveCommand ? pdo::decode_valve_command(f).status
+                                                             : pdo::decode_cutoff_command(f).status;
       snap_.codec.record(s);
       return;
     }
@@ -251,6 +264,13 @@ void Hal::update_health(std::int64_t now_us, std::int64_t data_age_ref_us) noexc
        snap_.valve_status.joint_fault_mask != 0)) {
     snap_.valve.health = Health::Faulted;
   }
+
+  node_health(snap_.cutoff);
+  snap_.cutoff_status_valid =
+      cutoff_status_t_us_ != 0 && data_age_ref_us - cutoff_status_t_us_ <= timing.encoder_stale_after_us;
+  if (snap_.cutoff.health == Health::Alive && snap_.cutoff_status_valid && snap_.cutoff_status.state == pdo::CutoffState::Fault) {
+    snap_.cutoff.health = Health::Faulted;
+  }
 }
 
 void Hal::set_valve_deadband(double fraction) {
@@ -274,10 +294,12 @@ WriteResult Hal::write(std::span<const double> velocity, std::int64_t now_us) no
     }
     if (fraction != 0.0) fraction = std::copysign(valve_deadband_ + (1.0 - valve_deadband_) * std::abs(fraction), fraction);
     permyriad[j] = pdo::fraction_to_permyriad(fraction).value;
+    snap_.valve_command_fraction[j] = pdo::permyriad_to_fraction(permyriad[j]);
   }
   if (velocity.size() != plan_.num_joints || result.refused_mask != 0) result.status = Status::OutOfRange;
 
   const std::size_t banks = (plan_.num_joints + pdo::kJointsPerValveFrame - 1) / pdo::kJointsPerValveFrame;
+  bool commands_sent = true;
   for (std::size_t b = 0; b < banks; ++b) {
     pdo::ValveCommand cmd{plan_.valve_node_id, static_cast<std::uint8_t>(b), {}};
     for (std::size_t k = 0; k < pdo::kJointsPerValveFrame; ++k) {
@@ -286,7 +308,14 @@ WriteResult Hal::write(std::span<const double> velocity, std::int64_t now_us) no
     const auto frame = pdo::encode_valve_command(cmd);
     const Status s = frame.ok() ? bus_.send(frame.value) : frame.status;
     if (s != Status::Ok) result.status = s;
+    commands_sent = commands_sent && s == Status::Ok;
   }
+  if (commands_sent) ++snap_.valve_commands_sent;
+  const auto cutoff = pdo::encode_cutoff_command(
+      {plan_.cutoff_node_id, pilot_enabled_ ? pdo::PilotCommand::Enable : pdo::PilotCommand::Cut});
+  const Status cs = cutoff.ok() ? bus_.send(cutoff.value) : cutoff.status;
+  if (cs != Status::Ok) result.status = cs;
+  snap_.pilot_enable_sent = pilot_enabled_ && cs == Status::Ok;
   const Status hb = heartbeat(now_us);
   if (hb != Status::Ok) result.status = hb;
   return result;

@@ -3,7 +3,10 @@
 
 #include <charconv>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace mgc::sim {
 
@@ -23,12 +26,23 @@ constexpr KindInfo kKinds[] = {
     {FaultKind::UwbSilent, "uwb-silent", FaultTarget::Kind::None, ""},
     {FaultKind::FrameDelay, "frame-delay", FaultTarget::Kind::None, ""},
     {FaultKind::BusOff, "bus-off", FaultTarget::Kind::None, ""},
-    {FaultKind::HeartbeatLost, "heartbeat-lost", FaultTarget::Kind::Joint, "JOINT | uwb | valve"},
+    {FaultKind::HeartbeatLost, "heartbeat-lost", FaultTarget::Kind::Joint, "JOINT | uwb | valve | cutoff"},
     {FaultKind::ValveIgnore, "valve-ignore", FaultTarget::Kind::None, ""},
+    {FaultKind::EncoderOffset, "encoder-offset", FaultTarget::Kind::Joint, "JOINT"},
+    {FaultKind::CutoffFail, "cutoff-fail", FaultTarget::Kind::None, ""},
 };
 
 [[noreturn]] void fail(std::string_view text, const std::string& what) {
   throw std::invalid_argument("fault \"" + std::string(text) + "\": " + what);
+}
+
+double parse_signed(std::string_view text, std::string_view part, const char* what) {
+  double value = 0.0;
+  const auto [end, ec] = std::from_chars(part.data(), part.data() + part.size(), value);
+  if (ec != std::errc() || end != part.data() + part.size() || !std::isfinite(value) || std::abs(value) > 1e6) {
+    fail(text, std::string(what) + ": expected a number within +-1e6, got \"" + std::string(part) + "\"");
+  }
+  return value;
 }
 
 double parse_number(std::string_view text, std::string_view part, const char* what) {
@@ -50,7 +64,7 @@ const char* to_string(FaultKind kind) noexcept {
 }
 
 std::string fault_syntax() {
-  std::string out = "KIND[:TARGET][@START_S[+DURATION_S]][,sigma_m=M][,delay_ms=MS] with KIND:TARGET one of:";
+  std::string out = "KIND[:TARGET][@START_S[+DURATION_S]][,sigma_m=M][,delay_ms=MS][,offset=X][,rate=X] with KIND:TARGET one of:";
   for (const KindInfo& k : kKinds) {
     out += std::string(" ") + k.name + (k.target == FaultTarget::Kind::None ? "" : std::string(":") + k.target_help) + ";";
   }
@@ -58,7 +72,9 @@ std::string fault_syntax() {
   return out;
 }
 
-Fault parse_fault(std::string_view text, std::span<const std::string> joint_names) {
+namespace {
+
+Fault parse_fault_impl(std::string_view text, std::span<const std::string> joint_names, std::span<const planning::JointSpec> joints) {
   Fault fault;
   std::string_view head = text;
   std::string_view options;
@@ -96,6 +112,8 @@ Fault parse_fault(std::string_view text, std::span<const std::string> joint_name
       fault.target = {FaultTarget::Kind::UwbGateway, -1};
     } else if (fault.kind == FaultKind::HeartbeatLost && target == "valve") {
       fault.target = {FaultTarget::Kind::Valve, -1};
+    } else if (fault.kind == FaultKind::HeartbeatLost && target == "cutoff") {
+      fault.target = {FaultTarget::Kind::Cutoff, -1};
     } else {
       for (std::size_t j = 0; j < joint_names.size(); ++j) {
         if (target == joint_names[j]) fault.target = {FaultTarget::Kind::Joint, static_cast<int>(j)};
@@ -104,7 +122,7 @@ Fault parse_fault(std::string_view text, std::span<const std::string> joint_name
         std::string names;
         for (const auto& n : joint_names) names += (names.empty() ? "" : ", ") + n;
         fail(text, "unknown target \"" + std::string(target) + "\"; expected one of " + names +
-                       (fault.kind == FaultKind::HeartbeatLost ? ", uwb, valve" : ""));
+                       (fault.kind == FaultKind::HeartbeatLost ? ", uwb, valve, cutoff" : ""));
       }
     }
   }
@@ -133,12 +151,36 @@ Fault parse_fault(std::string_view text, std::span<const std::string> joint_name
     } else if (key == "delay_ms" && fault.kind == FaultKind::FrameDelay) {
       fault.delay_ms = parse_number(text, value, "delay_ms");
       if (fault.delay_ms > 10'000.0) fail(text, "delay_ms: expected at most 10000, got \"" + std::string(value) + "\"");
+    } else if ((key == "offset" || key == "rate") && fault.kind == FaultKind::EncoderOffset) {
+      const std::size_t j = static_cast<std::size_t>(fault.target.index);
+      if (j >= joints.size()) fail(text, "encoder-offset needs the machine's joints to know the unit of its values");
+      const bool revolute = joints[j].type == planning::JointType::Revolute;
+      const double si = parse_signed(text, value, key == "offset" ? "offset" : "rate") * (revolute ? std::numbers::pi / 180.0 : 1.0);
+      (key == "offset" ? fault.offset : fault.offset_rate) = si;
     } else {
       fail(text, "unknown option \"" + std::string(option) + "\" for " + info->name +
-                     (fault.kind == FaultKind::TagNoise ? " (sigma_m=M)" : fault.kind == FaultKind::FrameDelay ? " (delay_ms=MS)" : " (none)"));
+                     (fault.kind == FaultKind::TagNoise       ? " (sigma_m=M)"
+                      : fault.kind == FaultKind::FrameDelay   ? " (delay_ms=MS)"
+                      : fault.kind == FaultKind::EncoderOffset ? " (offset=X, rate=X per s; deg or m)"
+                                                               : " (none)"));
     }
   }
+  if (fault.kind == FaultKind::EncoderOffset && fault.offset == 0.0 && fault.offset_rate == 0.0) {
+    fail(text, "encoder-offset needs offset=X or rate=X (deg or m, not both zero)");
+  }
   return fault;
+}
+
+}  // namespace
+
+Fault parse_fault(std::string_view text, std::span<const std::string> joint_names) {
+  return parse_fault_impl(text, joint_names, {});
+}
+
+Fault parse_machine_fault(std::string_view text, std::span<const planning::JointSpec> joints) {
+  std::vector<std::string> names;
+  for (const planning::JointSpec& j : joints) names.push_back(j.name);
+  return parse_fault_impl(text, names, joints);
 }
 
 }  // namespace mgc::sim

@@ -150,9 +150,7 @@ int main(int argc, char** argv) {
   try {
     scenario = mgc::planning::io::load_scenario(scenario_file);
     mgc::sim::apply_simulation_spec(scenario, config);
-    std::vector<std::string> joint_names;
-    for (const auto& j : scenario.machine.joints) joint_names.push_back(j.name);
-    for (const std::string& text : fault_texts) config.faults.push_back(mgc::sim::parse_fault(text, joint_names));
+    for (const std::string& text : fault_texts) config.faults.push_back(mgc::sim::parse_machine_fault(text, scenario.machine.joints));
   } catch (const mgc::planning::io::InputError& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;

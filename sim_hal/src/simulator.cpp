@@ -17,6 +17,8 @@ using hal::MessageKind;
 using hal::Status;
 using hal::canopen::NmtCommand;
 using hal::canopen::NmtState;
+using hal::pdo::CutoffReason;
+using hal::pdo::CutoffState;
 using hal::pdo::ValveReason;
 using hal::pdo::ValveState;
 
@@ -74,7 +76,10 @@ Simulator::Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimCo
     nodes_[num_nodes_++].node_id = plan_.encoders[j].node_id;
   }
   nodes_[num_nodes_++].node_id = plan_.uwb_gateway_node_id;
+  valve_node_ = num_nodes_;
   nodes_[num_nodes_++].node_id = plan_.valve_node_id;
+  cutoff_node_ = num_nodes_;
+  nodes_[num_nodes_++].node_id = plan_.cutoff_node_id;
   tags_ = scenario_tags(scenario);
   next_fix_us_.assign(tags_.size(), 0);
   tag_sequence_.assign(tags_.size(), 0);
@@ -143,6 +148,12 @@ void Simulator::boot(Node& n, std::int64_t now_us) noexcept {
     heartbeat_armed_ = false;
     command_armed_ = false;
   }
+  if (n.node_id == plan_.cutoff_node_id) {
+    set_cutoff(CutoffState::Cut, CutoffReason::NotOperational);
+    cutoff_heartbeat_armed_ = false;
+    cutoff_command_armed_ = false;
+    cutoff_latched_ = false;
+  }
 }
 
 void Simulator::step(std::int64_t now_us) noexcept {
@@ -185,6 +196,7 @@ void Simulator::step(std::int64_t now_us) noexcept {
   }
 
   supervise_valve(now_us);  // the node's own timers run on while its CAN controller is bus-off
+  supervise_cutoff(now_us);
   if (!bus_off_) {
     emit_heartbeats(now_us);
     emit_uwb(now_us);
@@ -197,18 +209,22 @@ void Simulator::step(std::int64_t now_us) noexcept {
   }
   truth_.valve_state = valve_state_;
   truth_.valve_reason = valve_reason_;
+  truth_.cutoff_state = cutoff_state_;
+  truth_.pilot_pressure = pilot_pressure();
 }
 
 void Simulator::advance_physics(std::int64_t now_us) noexcept {
   const double dt_s = static_cast<double>(physics_step_us_) / kUsPerS;
   const double ramp = config_.valve_ramp_per_s * dt_s;
   while (physics_us_ + physics_step_us_ <= now_us) {
+    // Without pilot pressure the main spools spring to neutral, whatever the valve node drives.
+    const bool pilot = pilot_pressure();
     for (std::size_t j = 0; j < plan_.num_joints; ++j) {
       // The node's set-point ramp; fail-safe and disable block the spools at once.
       const double target = valve_state_ == ValveState::Active ? commanded_[j] : 0.0;
       double& spool = truth_.spool[j];
       spool = valve_state_ == ValveState::Active ? std::clamp(target, spool - ramp, spool + ramp) : 0.0;
-      actuators_[j].step(spool, dt_s);
+      actuators_[j].step(pilot ? spool : 0.0, dt_s);
     }
     physics_us_ += physics_step_us_;
   }
@@ -235,9 +251,11 @@ void Simulator::handle(const hal::TimedFrame& timed, std::int64_t now_us) noexce
       const auto hb = hal::canopen::decode_heartbeat(f);
       counters_.codec.record(hb.status);
       if (hb.ok() && hb.value.node_id == plan_.controller_node_id) {
-        // The valve node consumes the controller's heartbeat from the first one it hears.
+        // The valve and cut-off nodes consume the controller's heartbeat from the first one they hear.
         heartbeat_armed_ = true;
         last_controller_heartbeat_us_ = timed.t_us;
+        cutoff_heartbeat_armed_ = true;
+        cutoff_last_heartbeat_us_ = timed.t_us;
       }
       return;
     }
@@ -245,6 +263,12 @@ void Simulator::handle(const hal::TimedFrame& timed, std::int64_t now_us) noexce
       const auto cmd = hal::pdo::decode_valve_command(f);
       counters_.codec.record(cmd.status);
       if (cmd.ok()) on_valve_command(cmd.value, timed.t_us);
+      return;
+    }
+    case MessageKind::CutoffCommand: {
+      const auto cmd = hal::pdo::decode_cutoff_command(f);
+      counters_.codec.record(cmd.status);
+      if (cmd.ok()) on_cutoff_command(cmd.value, timed.t_us);
       return;
     }
     case MessageKind::Unknown: counters_.codec.record(Status::UnknownId); return;
@@ -257,9 +281,24 @@ void Simulator::on_nmt(const hal::canopen::NmtMessage& nmt, std::int64_t now_us)
     Node& n = nodes_[i];
     if (nmt.target_node_id != 0 && nmt.target_node_id != n.node_id) continue;
     const bool valve = n.node_id == plan_.valve_node_id;
+    const bool cutoff = n.node_id == plan_.cutoff_node_id;
     switch (nmt.command) {
       case NmtCommand::Start:
         n.state = NmtState::Operational;
+        if (cutoff) {
+          // Operational, still cut until the controller enables it; a start clears a latched cut,
+          // and its emergency with an error reset (CiA 301: EMCY code 0000h).
+          if (cutoff_latched_) {
+            hal::canopen::EmcyMessage reset;
+            reset.node_id = plan_.cutoff_node_id;
+            reset.error_code = hal::canopen::kEmcyNoError;
+            queue(hal::canopen::encode_emcy(reset).value, now_us);
+          }
+          set_cutoff(CutoffState::Cut, CutoffReason::Commanded);
+          cutoff_latched_ = false;
+          cutoff_heartbeat_armed_ = false;
+          cutoff_command_armed_ = false;
+        }
         if (valve) {
           // A start clears a fail-safe; the monitors re-arm on the first heartbeat and command.
           valve_state_ = ValveState::Active;
@@ -277,6 +316,7 @@ void Simulator::on_nmt(const hal::canopen::NmtMessage& nmt, std::int64_t now_us)
           valve_reason_ = ValveReason::None;
           commanded_.fill(0.0);
         }
+        if (cutoff) set_cutoff(CutoffState::Cut, CutoffReason::NotOperational);
         break;
       case NmtCommand::ResetNode:
       case NmtCommand::ResetCommunication: boot(n, now_us); break;
@@ -302,10 +342,21 @@ void Simulator::on_sync(std::int64_t now_us) noexcept {
     if (fault_active(FaultKind::EncoderDropout, FaultTarget::Kind::Joint, joint)) continue;
     hal::pdo::EncoderPosition pos{n.node_id, stuck_now ? stuck_counts_[j] : counts.value, 0};
     if (!counts.ok()) pos.status = hal::pdo::kEncoderStatusAlarm;
+    if (const Fault* lie = find_fault(FaultKind::EncoderOffset, FaultTarget::Kind::Joint, joint); lie != nullptr && !stuck_now) {
+      const double lie_si = lie->offset + lie->offset_rate * (truth_.t_s - lie->start_s);
+      const auto lied = hal::pdo::si_to_counts(actuators_[j].position() + noise_si + lie_si, kind);
+      pos.position_counts = lied.value;
+      pos.status = lied.ok() ? 0 : hal::pdo::kEncoderStatusAlarm;
+    }
     queue(hal::pdo::encode_encoder_position(pos).value, now_us);
   }
 
-  const Node& valve = nodes_[num_nodes_ - 1];
+  const Node& cutoff = nodes_[cutoff_node_];
+  if (cutoff.state == NmtState::Operational) {
+    queue(hal::pdo::encode_cutoff_status({plan_.cutoff_node_id, cutoff_state_, cutoff_reason_, pilot_pressure()}).value, now_us);
+  }
+
+  const Node& valve = nodes_[valve_node_];
   if (valve.state != NmtState::Operational) return;
   hal::pdo::ValveStatus status{plan_.valve_node_id, valve_state_, valve_reason_, 0, command_counter_};
   queue(hal::pdo::encode_valve_status(status).value, now_us);
@@ -345,6 +396,45 @@ void Simulator::supervise_valve(std::int64_t now_us) noexcept {
   }
 }
 
+void Simulator::on_cutoff_command(const hal::pdo::CutoffCommand& cmd, std::int64_t t_us) noexcept {
+  if (nodes_[cutoff_node_].state != NmtState::Operational || cutoff_state_ == CutoffState::Fault) return;
+  cutoff_command_armed_ = true;
+  cutoff_last_command_us_ = t_us;
+  if (cmd.command == hal::pdo::PilotCommand::Cut) {
+    set_cutoff(CutoffState::Cut, CutoffReason::Commanded);
+  } else if (!cutoff_latched_) {
+    set_cutoff(CutoffState::Enabled, CutoffReason::None);
+  }
+}
+
+void Simulator::supervise_cutoff(std::int64_t now_us) noexcept {
+  if (cutoff_state_ != CutoffState::Enabled) return;
+  CutoffReason loss = CutoffReason::None;
+  if (cutoff_heartbeat_armed_ && now_us - cutoff_last_heartbeat_us_ > plan_.timing.cutoff_heartbeat_timeout_us) {
+    loss = CutoffReason::ControllerHeartbeatLost;
+  } else if (cutoff_command_armed_ && now_us - cutoff_last_command_us_ > plan_.timing.cutoff_command_timeout_us) {
+    loss = CutoffReason::CommandTimeout;
+  }
+  if (loss == CutoffReason::None) return;
+  set_cutoff(CutoffState::Cut, loss);
+  cutoff_latched_ = true;
+  hal::canopen::EmcyMessage emcy;
+  emcy.node_id = plan_.cutoff_node_id;
+  emcy.error_code = loss == CutoffReason::ControllerHeartbeatLost ? hal::canopen::kEmcyHeartbeat : hal::canopen::kEmcyRpdoTimeout;
+  emcy.error_register = 0x11;
+  queue(hal::canopen::encode_emcy(emcy).value, now_us);
+}
+
+void Simulator::set_cutoff(CutoffState state, CutoffReason reason) noexcept {
+  if (cutoff_state_ == CutoffState::Enabled && state != CutoffState::Enabled) ++counters_.pilot_cuts;
+  cutoff_state_ = state;
+  cutoff_reason_ = reason;
+}
+
+bool Simulator::pilot_pressure() const noexcept {
+  return cutoff_state_ == CutoffState::Enabled || fault_active(FaultKind::CutoffFail);
+}
+
 void Simulator::enter_fail_safe(ValveReason reason, std::int64_t now_us) noexcept {
   valve_state_ = ValveState::FailSafe;
   valve_reason_ = reason;
@@ -369,7 +459,9 @@ void Simulator::emit_heartbeats(std::int64_t now_us) noexcept {
                           ? fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Joint, static_cast<int>(i))
                       : n.node_id == plan_.uwb_gateway_node_id
                           ? fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::UwbGateway, -1)
-                          : fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Valve, -1);
+                      : n.node_id == plan_.valve_node_id
+                          ? fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Valve, -1)
+                          : fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Cutoff, -1);
     if (lost) continue;
     queue(hal::canopen::encode_heartbeat({n.node_id, n.state}).value, now_us);
   }
@@ -458,11 +550,9 @@ void apply_simulation_spec(const planning::Scenario& scenario, SimConfig& config
   if (s.uwb_latency_ms) config.uwb.latency_ms = *s.uwb_latency_ms;
   if (s.uwb_dropout_pct) config.uwb.dropout_probability = *s.uwb_dropout_pct / 100.0;
   if (s.scenario_time_offset_s) config.scenario_time_offset_s = *s.scenario_time_offset_s;
-  std::vector<std::string> joint_names;
-  for (const auto& j : scenario.machine.joints) joint_names.push_back(j.name);
   for (const auto& [text, ref] : s.faults) {
     try {
-      config.faults.push_back(parse_fault(text, joint_names));
+      config.faults.push_back(parse_machine_fault(text, scenario.machine.joints));
     } catch (const std::invalid_argument& e) {
       throw planning::io::InputError(ref.file, ref.line, ref.field, e.what());
     }

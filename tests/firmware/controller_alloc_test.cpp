@@ -38,6 +38,7 @@ Counted drive(SimRig& rig, firmware::Controller& controller) {
     counts->allocations += test::allocation_count() - before;
     ++counts->cycles;
     if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+    rig.hal->set_pilot_enabled(out.pilot_enable);
     for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
   };
   return counts;

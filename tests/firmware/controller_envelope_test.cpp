@@ -62,6 +62,7 @@ void drive(firmware::Controller& controller, SimRig& rig, bool& goal_sent, const
   }
   const firmware::ControllerOutput out = controller.step(s, rig.cycle_us, commands, false);
   if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+  rig.hal->set_pilot_enabled(out.pilot_enable);
   for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
 }
 

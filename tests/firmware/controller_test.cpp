@@ -89,6 +89,7 @@ struct Run {
     last_commands = commands;
     out = controller.step(s, rig.cycle_us, commands, false);
     if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+    rig.hal->set_pilot_enabled(out.pilot_enable);
     for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
     if (out.supervisor.transitioned) {
       transitions.push_back(std::to_string(static_cast<double>(s.t_us - SimRig::kSimZeroUs) * 1e-6) + " s " +

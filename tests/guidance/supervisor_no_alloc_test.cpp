@@ -20,6 +20,7 @@ TEST_CASE("the supervisor and its transition log do not allocate", "[unit]") {
   SupervisorInputs in;
   in.now_us = 0;
   in.sensing.valve = ValveHealth::Active;
+  in.sensing.cutoff = CutoffHealth::Ready;
   in.sensing.uwb_gateway = DeviceHealth::Alive;
   for (int j = 0; j < 4; ++j) in.sensing.joint[static_cast<std::size_t>(j)] = DeviceHealth::Alive;
   std::uint64_t transitions = 0;

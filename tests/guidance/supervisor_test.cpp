@@ -35,6 +35,7 @@ SupervisorInputs healthy(std::int64_t now_us) {
   in.now_us = now_us;
   for (int j = 0; j < kJoints; ++j) in.sensing.joint[static_cast<std::size_t>(j)] = DeviceHealth::Alive;
   in.sensing.valve = ValveHealth::Active;
+  in.sensing.cutoff = CutoffHealth::Ready;
   in.sensing.uwb_gateway = DeviceHealth::Alive;
   in.sensing.uwb_last_fix_us = now_us;
   in.progress.at_rest = true;

@@ -57,6 +57,7 @@ StopCycle run_to_stop(sim::SimConfig config, const std::string& name) {
       const hal::SensorSnapshot& s = rig.hal->read(rig.t_us);
       const firmware::ControllerOutput out = controller.step(s, SimRig::kCycleUs, commands, false);
       if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+      rig.hal->set_pilot_enabled(out.pilot_enable);
       (void)rig.hal->write(out.velocity, rig.t_us);
       const auto t1 = std::chrono::steady_clock::now();
       if (out.supervisor.transitioned) {

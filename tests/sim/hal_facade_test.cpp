@@ -235,13 +235,18 @@ TEST_CASE("Hal: write scales to permyriad, clamps, refuses NaN as zero, sends th
   CHECK(w.clamped_mask == 0b0010);
   CHECK(w.refused_mask == 0b1000);
   const auto frames = b.drain_device();
-  REQUIRE(frames.size() == 2);  // command + first heartbeat
+  REQUIRE(frames.size() == 3);  // command, cut-off command, first heartbeat
   const auto cmd = pdo::decode_valve_command(frames[0]);
   REQUIRE(cmd.ok());
   CHECK(cmd.value.velocity_permyriad == std::array<std::int16_t, 4>{5000, -10000, 10000, 0});
-  const auto hb = canopen::decode_heartbeat(frames[1]);
+  // Pilot pressure is cut until the harness enables it.
+  const auto cut = pdo::decode_cutoff_command(frames[1]);
+  REQUIRE(cut.ok());
+  CHECK(cut.value.command == pdo::PilotCommand::Cut);
+  const auto hb = canopen::decode_heartbeat(frames[2]);
   REQUIRE(hb.ok());
   CHECK(hb.value.node_id == kControllerNodeId);
+  CHECK(b.hal->snapshot().valve_commands_sent == 1);  // the frame went out, the NaN sent as 0
 
   int heartbeats = 0;
   for (std::int64_t t = 1'010'000; t <= 2'000'000; t += 10'000) {
@@ -250,6 +255,16 @@ TEST_CASE("Hal: write scales to permyriad, clamps, refuses NaN as zero, sends th
     for (const CanFrame& f : b.drain_device()) heartbeats += f.can_id == canopen::heartbeat_cob_id(kControllerNodeId);
   }
   CHECK(heartbeats == 20);  // 1.0 s at 50 ms
+
+  b.hal->set_pilot_enabled(true);
+  CHECK(b.hal->write(std::array<double, 4>{}, 2'010'000).status == Status::Ok);
+  bool enabled = false;
+  for (const CanFrame& f : b.drain_device()) {
+    const auto c = pdo::decode_cutoff_command(f);
+    enabled = enabled || (c.ok() && c.value.command == pdo::PilotCommand::Enable);
+  }
+  CHECK(enabled);
+  CHECK(b.hal->snapshot().pilot_enable_sent);
 }
 
 TEST_CASE("Hal: with a valve deadband a command is mapped past it, zero stays zero", "[hal][facade]") {

@@ -51,6 +51,8 @@ class SimRig {
     const auto vmax = max_velocities(scenario);
     hal = std::make_unique<hal::Hal>(*controller_bus, sim->plan(), vmax);
     command.assign(vmax.size(), 0.0);
+    // The rig's own commands drive the machine; a controller on the rig sets it from its output.
+    hal->set_pilot_enabled(true);
   }
 
   //! The Hal maps commands past the simulated valves' deadband, as mgc does with its calibration
@@ -73,6 +75,7 @@ class SimRig {
       t_us += kPhysicsUs;
       clock.set_us(t_us);
       if (controller_alive && t_us % cycle_us == 0) {
+        if (before_read) before_read();
         last = &hal->read(t_us);
         if (on_cycle) on_cycle(*last);
         if (send_commands) (void)hal->write(command, t_us);
@@ -101,6 +104,9 @@ class SimRig {
   std::int64_t cycle_us = kCycleUs;
   bool send_commands = true;
   std::function<void(const hal::SensorSnapshot&)> on_cycle;
+  //! Called at each cycle's time before the Hal reads: frames sent here arrive after the machine's
+  //! own of the previous millisecond, so an attacker's frame is the last one the Hal sees.
+  std::function<void()> before_read;
   const hal::SensorSnapshot* last = nullptr;
   std::int64_t t_us = 1'000'000;
 };

@@ -60,6 +60,7 @@ struct RealTimeRig {
     std::vector<double> vmax;
     for (const auto& j : scenario.machine.joints) vmax.push_back(j.max_velocity);
     hal = std::make_unique<hal::Hal>(*controller_bus, sim->plan(), vmax);
+    hal->set_pilot_enabled(true);
     command.assign(4, 0.0);
   }
 

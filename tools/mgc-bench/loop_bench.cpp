@@ -128,6 +128,7 @@ class Rig {
         const firmware::ControllerOutput out = controller->step(s, cycle_us, cmd, false);
         if (out.start_nodes) (void)hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
         const std::int64_t t2 = now_ns();
+        hal->set_pilot_enabled(out.pilot_enable);
         (void)hal->write(out.velocity, t_us);
         const std::int64_t t3 = now_ns();
         c.cpu_us = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-3;

@@ -12,6 +12,7 @@
 #include "mgc/firmware/guidance_snapshot.hpp"
 #include "mgc/firmware/obstacle_tracker.hpp"
 #include "mgc/firmware/rate_limiter.hpp"
+#include "mgc/guidance/diagnostics.hpp"
 #include "mgc/guidance/online.hpp"
 #include "mgc/guidance/rated_capacity.hpp"
 #include "mgc/guidance/safety.hpp"
@@ -109,6 +110,8 @@ struct ControllerConfig {
   guidance::SupervisorConfig supervisor{};
   TrackerConfig tracker{};
   guidance::RatedCapacityConfig rated_capacity{};
+  //! The sensor and actuator plausibility checks (docs/diagnostics.md).
+  guidance::PlausibilityConfig plausibility{};
 };
 
 //! Operator commands of this cycle, already authenticated (command_auth.hpp).
@@ -125,6 +128,9 @@ struct ControllerOutput {
   std::span<const double> velocity;  //!< for Hal::write [rad/s | m/s]
   bool start_nodes = false;          //!< send NMT start to all nodes
   bool reset_watchdog = false;       //!< an acknowledgement was accepted
+  //! Keep pilot pressure on (hal::Hal::set_pilot_enabled): false in FAULT, and at once when the
+  //! valve is in doubt, so that a valve that does not obey is stopped through the second channel.
+  bool pilot_enable = false;
   guidance::SupervisorOutput supervisor{};
 };
 
@@ -154,6 +160,13 @@ struct ControllerStats {
   //! Times a moving obstacle was predicted to come within the stop margin of the machine at rest
   //! (the approach warning raised; each rise counts once).
   int approach_warnings = 0;
+  //! The plausibility monitor's finding (None: none) and when it was seen. [µs on the snapshot clock]
+  guidance::PlausibilityFault plausibility_fault = guidance::PlausibilityFault::None;
+  int plausibility_joint = -1;  //!< the joint it named; -1 for the valve's counter
+  std::int64_t plausibility_detected_us = 0;
+  //! Largest share of its threshold any of the monitor's motion checks reached (1 = a fault). [-]
+  double plausibility_peak_ratio = 0.0;
+  int pilot_cuts = 0;  //!< times the controller cut pilot pressure
 };
 
 class Controller {
@@ -173,6 +186,7 @@ class Controller {
   [[nodiscard]] const ControllerStats& stats() const noexcept { return stats_; }
   [[nodiscard]] guidance::Supervisor& supervisor() noexcept { return supervisor_; }
   [[nodiscard]] const guidance::StopCheckResult& stop_check() const noexcept { return check_; }
+  [[nodiscard]] const guidance::PlausibilityMonitor& plausibility() const noexcept { return monitor_; }
   //! The working-envelope limiter's verdict on the last command (nothing when the site has no envelope).
   [[nodiscard]] const guidance::EnvelopeResult& envelope() const noexcept { return envelope_result_; }
   [[nodiscard]] bool has_envelope() const noexcept { return envelope_ != nullptr; }
@@ -282,6 +296,10 @@ class Controller {
   std::unique_ptr<guidance::RatedCapacityLimiter> rcl_;
   guidance::RatedCapacityResult rcl_result_{};
   guidance::Supervisor supervisor_;
+  guidance::PlausibilityMonitor monitor_;
+  //! What the previous cycle commanded (the valve applies it now) and whether it kept pilot pressure.
+  std::array<double, kMaxJoints> last_command_{};
+  bool pilot_enabled_ = false;
   RateLimiter limiter_;
   guidance::OneJointAtATime generator_{};
   int n_ = 0;
@@ -316,7 +334,7 @@ class Controller {
   std::uint32_t plan_id_ = 0;
 
   // Alerts: one slot per kind, an id from raise to clear.
-  static constexpr std::size_t kAlertKinds = 9;
+  static constexpr std::size_t kAlertKinds = 10;
   static_assert(kAlertKinds <= static_cast<std::size_t>(kSnapshotMaxAlerts), "every alert kind fits a snapshot");
   std::array<SnapshotAlert, kAlertKinds> alerts_{};
   std::array<bool, kAlertKinds> alert_active_{};

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <span>
 
+#include "mgc/guidance/diagnostics.hpp"
 #include "mgc/guidance/rated_capacity.hpp"
 #include "mgc/guidance/safety.hpp"
 #include "mgc/limits.hpp"
@@ -71,6 +72,16 @@ enum class TransitionReason : std::uint8_t {
   //! The valve node's heartbeat says Operational, but its status frames stopped (or the bus holds
   //! them back): whether it still follows the commands is unknown. A loss of sensing.
   ValveStatusStale,
+  // Plausibility (guidance::PlausibilityMonitor): devices that talk but cannot be believed.
+  EncoderStuck,          //!< an encoder repeats its value while the joint must be moving (value: joint)
+  EncoderImplausible,    //!< an encoder value beyond the end stops, or a step no actuator can make (value: joint)
+  JointNotFollowing,     //!< a joint moves less than its command allows (value: joint)
+  JointRunaway,          //!< a joint moves more than its command allows; pilot pressure is cut (value: joint)
+  ValveNotObeying,       //!< the valve's spools or counter do not follow the commands; pilot cut (value: joint, -1: counter)
+  // The second shut-off channel (the pilot-pressure cut-off node).
+  CutoffLost,            //!< the cut-off node's heartbeat is lost
+  CutoffFailed,          //!< it reports a fault, or pilot pressure while it holds the pilot cut
+  CutoffNotReady,        //!< no pilot pressure while the machine is in use (not enabled, or it cut on its own)
 };
 [[nodiscard]] const char* to_string(TransitionReason reason) noexcept;
 
@@ -94,6 +105,15 @@ enum class ValveHealth : std::uint8_t {
   StatusStale,  //!< heartbeat fresh and Operational, but no status frame within the stale limit after earlier ones
 };
 
+//! The pilot-pressure cut-off (the second shut-off channel) as the loop sees it.
+enum class CutoffHealth : std::uint8_t {
+  Missing = 0,  //!< heartbeat lost or never heard
+  NotReady,     //!< heartbeat fresh, no fresh status frame (not started, or its reports stopped)
+  Ready,        //!< enabled, and its pressure switch reports pilot pressure
+  Cut,          //!< no pilot pressure: the machine cannot move
+  Failed,       //!< a fault of its own, or pilot pressure although it holds the pilot cut
+};
+
 //! Sensing health for one cycle, from the Hal's SensorSnapshot.
 struct SensingInputs {
   std::array<DeviceHealth, kMaxJoints> joint{};  //!< JointReading::health per joint (encoder node and data)
@@ -101,6 +121,10 @@ struct SensingInputs {
   bool bus_off = false;                          //!< SensorSnapshot::bus_state == BusOff
   DeviceHealth uwb_gateway = DeviceHealth::Missing;  //!< the gateway node's health
   std::int64_t uwb_last_fix_us = 0;              //!< newest tag fix receive time; 0 = none yet [µs]
+  CutoffHealth cutoff = CutoffHealth::Missing;
+  //! The latched finding of the plausibility monitor (None: none) and the joint it names.
+  PlausibilityFault plausibility = PlausibilityFault::None;
+  int plausibility_joint = -1;
 };
 
 //! The safety functions' verdict for this cycle.
@@ -242,6 +266,8 @@ class Supervisor {
   [[nodiscard]] SupervisorState state() const noexcept { return state_; }
   //! The reason of the transition into the current state (for FAULT: the fault's cause).
   [[nodiscard]] TransitionReason reason() const noexcept { return reason_; }
+  //! The value of that transition: the joint (or planner status, retry number); -1 for none.
+  [[nodiscard]] std::int32_t reason_value() const noexcept { return fault_value_; }
   //! HOLD after GoalOccupied: a re-plan retry is scheduled.
   [[nodiscard]] bool retry_pending() const noexcept { return retry_pending_; }
   [[nodiscard]] int retries_done() const noexcept { return retries_done_; }

@@ -22,6 +22,7 @@ inline constexpr std::uint8_t kControllerNodeId = 0x01;
 inline constexpr std::uint8_t kFirstEncoderNodeId = 0x11;  //!< joint i's encoder is 0x11 + i
 inline constexpr std::uint8_t kUwbGatewayNodeId = 0x20;
 inline constexpr std::uint8_t kValveNodeId = 0x30;
+inline constexpr std::uint8_t kCutoffNodeId = 0x31;  //!< pilot-pressure cut-off: the second shut-off channel
 
 //! One joint's encoder node.
 struct JointEncoder {
@@ -38,6 +39,8 @@ struct BusTiming {
   std::int64_t device_heartbeat_period_us = 100'000;     //!< every device's heartbeat producer [µs]
   std::int64_t valve_heartbeat_timeout_us = 150'000;     //!< valve consumer of the controller [µs]
   std::int64_t valve_command_timeout_us = 50'000;        //!< valve RPDO timeout, 5 SYNC periods [µs]
+  std::int64_t cutoff_heartbeat_timeout_us = 150'000;    //!< cut-off node's consumer of the controller [µs]
+  std::int64_t cutoff_command_timeout_us = 50'000;       //!< cut-off RPDO timeout, 5 SYNC periods [µs]
   std::int64_t device_heartbeat_timeout_us = 250'000;    //!< controller consumer of each device [µs]
   std::int64_t encoder_stale_after_us = 30'000;          //!< no encoder PDO for 3 SYNC periods [µs]
   std::int64_t uwb_tag_stale_after_us = 500'000;         //!< no fix of a tag for 5 nominal periods [µs]
@@ -51,6 +54,7 @@ struct BusPlan {
   std::uint8_t num_joints = 0;
   std::uint8_t uwb_gateway_node_id = kUwbGatewayNodeId;
   std::uint8_t valve_node_id = kValveNodeId;
+  std::uint8_t cutoff_node_id = kCutoffNodeId;
   BusTiming timing{};
 };
 
@@ -78,6 +82,8 @@ enum class MessageKind : std::uint8_t {
   ValveCommand,
   ValveStatus,
   ValveApplied,
+  CutoffCommand,
+  CutoffStatus,
 };
 
 [[nodiscard]] const char* to_string(MessageKind kind) noexcept;

@@ -117,6 +117,51 @@ struct ValveApplied {
 [[nodiscard]] Result<CanFrame> encode_valve_applied(const ValveApplied& message) noexcept;
 [[nodiscard]] Result<ValveApplied> decode_valve_applied(const CanFrame& frame) noexcept;
 
+// --- Pilot-pressure cut-off node: the second shut-off channel ---------------------------------
+//
+// A dump valve in the pilot supply of the main valve block: without pilot pressure every main
+// spool springs to neutral, whatever the valve node commands. De-energised means cut, so the
+// node needs a fresh enable command to keep the pressure on (docs/protocol.md §Cut-off node).
+
+//! What the controller asks of the cut-off: RPDO1 (0x200 + node), every cycle, dlc 1.
+enum class PilotCommand : std::uint8_t {
+  Cut = 0x00,     //!< dump the pilot supply
+  Enable = 0xA5,  //!< keep it pressurised; a pattern, so that one corrupt bit never enables
+};
+struct CutoffCommand {
+  std::uint8_t node_id = 0;
+  PilotCommand command = PilotCommand::Cut;
+};
+[[nodiscard]] Result<CanFrame> encode_cutoff_command(const CutoffCommand& message) noexcept;
+//! OutOfRange for any command byte other than the two patterns.
+[[nodiscard]] Result<CutoffCommand> decode_cutoff_command(const CanFrame& frame) noexcept;
+
+enum class CutoffState : std::uint8_t {
+  Cut = 0,      //!< the dump valve is open (commanded, not started, or after a loss)
+  Enabled = 1,  //!< the dump valve is closed: pilot pressure is supplied
+  Fault = 2,    //!< internal fault: the node de-energised its output
+};
+//! Why the node holds the pilot cut.
+enum class CutoffReason : std::uint8_t {
+  None = 0,                     //!< Enabled
+  Commanded = 1,                //!< the controller asked for the cut (or has not enabled yet)
+  NotOperational = 2,           //!< the node is not in NMT Operational
+  ControllerHeartbeatLost = 3,  //!< latched until the next NMT Start
+  CommandTimeout = 4,           //!< no enable command for the RPDO timeout; latched until NMT Start
+  InternalFault = 5,
+};
+//! Cut-off status: TPDO1 (0x180 + node), synchronous, dlc 3: state, reason, and the pilot pressure
+//! switch downstream of the dump valve (1 = pressure present): the node reports what the
+//! hydraulics do, not what it asked of them.
+struct CutoffStatus {
+  std::uint8_t node_id = 0;
+  CutoffState state = CutoffState::Cut;
+  CutoffReason reason = CutoffReason::Commanded;
+  bool pressure = false;
+};
+[[nodiscard]] Result<CanFrame> encode_cutoff_status(const CutoffStatus& message) noexcept;
+[[nodiscard]] Result<CutoffStatus> decode_cutoff_status(const CanFrame& frame) noexcept;
+
 //! Fraction of max velocity (-1..1) → command count; OutOfRange outside [-1, 1] or NaN.
 [[nodiscard]] Result<std::int16_t> fraction_to_permyriad(double fraction) noexcept;
 [[nodiscard]] constexpr double permyriad_to_fraction(std::int16_t permyriad) noexcept {

@@ -89,6 +89,16 @@ struct SensorSnapshot {
   bool valve_status_valid = false;   //!< a status frame newer than the encoder stale limit
   std::int64_t valve_status_t_us = 0;  //!< receive time of the last status frame; 0 = none since start [µs]
   std::array<double, kMaxBusJoints> valve_applied_fraction{};  //!< spools in force, -1..1 [-]
+  //! What the last write() commanded, in the same scale as valve_applied_fraction (deadband
+  //! mapping included), and how many writes have sent commands: the valve's applied spools and
+  //! command counter are checked against them (guidance::PlausibilityMonitor).
+  std::array<double, kMaxBusJoints> valve_command_fraction{};  //!< -1..1 [-]
+  std::uint32_t valve_commands_sent = 0;  //!< write() calls whose command frames all went out [-]
+
+  DeviceStatus cutoff{};             //!< the pilot-pressure cut-off node
+  pdo::CutoffStatus cutoff_status{}; //!< its last status frame
+  bool cutoff_status_valid = false;  //!< a status frame newer than the encoder stale limit
+  bool pilot_enable_sent = false;    //!< the last write() asked the cut-off to keep pilot pressure
 
   std::size_t num_tags = 0;          //!< tags seen since start, in order of first sight
   std::array<TagReading, kMaxTags> tags{};
@@ -148,8 +158,14 @@ class Hal {
   [[nodiscard]] double valve_deadband() const noexcept { return valve_deadband_; }
 
   //! Sends the valve command frames for every joint (velocities in SI, clamped to the max
-  //! velocity), and the controller heartbeat when it is due.
+  //! velocity), the cut-off command (enable or cut, see set_pilot_enabled), and the controller
+  //! heartbeat when it is due.
   WriteResult write(std::span<const double> velocity, std::int64_t now_us) noexcept;
+
+  //! Whether write() asks the cut-off node to keep pilot pressure on. Off until set: a harness
+  //! that never enables it leaves the machine unable to move, never the other way round.
+  void set_pilot_enabled(bool enabled) noexcept { pilot_enabled_ = enabled; }
+  [[nodiscard]] bool pilot_enabled() const noexcept { return pilot_enabled_; }
 
   //! Sends an NMT command (node 0 = all nodes).
   Status send_nmt(canopen::NmtCommand command, std::uint8_t node_id) noexcept;
@@ -182,6 +198,8 @@ class Hal {
   std::array<TimedFrame, kHalReceiveBatch> rx_{};
   std::array<std::int8_t, 256> tag_slot_{};  //!< tag id → index in snap_.tags, -1 = unseen
   std::int64_t valve_status_t_us_ = 0;
+  std::int64_t cutoff_status_t_us_ = 0;
+  bool pilot_enabled_ = false;
   std::uint8_t sync_counter_ = 0;
   bool sync_enabled_ = true;
   std::int64_t previous_read_us_ = 0;

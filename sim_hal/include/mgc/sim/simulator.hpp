@@ -52,6 +52,10 @@ struct TrueState {
   std::array<double, hal::kMaxBusJoints> spool{};     //!< applied spool fraction [-]
   hal::pdo::ValveState valve_state = hal::pdo::ValveState::Disabled;
   hal::pdo::ValveReason valve_reason = hal::pdo::ValveReason::None;
+  hal::pdo::CutoffState cutoff_state = hal::pdo::CutoffState::Cut;
+  //! Pilot pressure reaches the main valve block: without it every spool is neutral, whatever
+  //! `spool` (the valve node's set-points) says.
+  bool pilot_pressure = false;
 };
 
 //! Frames and events since start.
@@ -65,6 +69,7 @@ struct SimCounters {
   std::uint64_t tag_fixes = 0;          //!< fixes computed [-]
   std::uint64_t tag_fixes_dropped = 0;  //!< fixes lost on the way (dropout) [-]
   std::uint64_t fail_safe_events = 0;   //!< valve entries into FailSafe [-]
+  std::uint64_t pilot_cuts = 0;         //!< the cut-off node went from Enabled to Cut or Fault [-]
   hal::CodecCounters codec{};
 };
 
@@ -120,6 +125,11 @@ class Simulator {
   void on_nmt(const hal::canopen::NmtMessage& nmt, std::int64_t now_us) noexcept;
   void on_sync(std::int64_t now_us) noexcept;
   void on_valve_command(const hal::pdo::ValveCommand& cmd, std::int64_t now_us) noexcept;
+  void on_cutoff_command(const hal::pdo::CutoffCommand& cmd, std::int64_t now_us) noexcept;
+  void supervise_cutoff(std::int64_t now_us) noexcept;
+  void set_cutoff(hal::pdo::CutoffState state, hal::pdo::CutoffReason reason) noexcept;
+  //! The pilot pressure the hydraulics deliver now: the node's state, unless its dump valve sticks.
+  [[nodiscard]] bool pilot_pressure() const noexcept;
   void supervise_valve(std::int64_t now_us) noexcept;
   void enter_fail_safe(hal::pdo::ValveReason reason, std::int64_t now_us) noexcept;
   void emit_heartbeats(std::int64_t now_us) noexcept;
@@ -149,9 +159,11 @@ class Simulator {
   TrueState truth_{};
   SimCounters counters_{};
 
-  // Nodes: encoders 0..n-1, then the UWB gateway, then the valve.
-  std::array<Node, hal::kMaxBusJoints + 2> nodes_{};
+  // Nodes: encoders 0..n-1, then the UWB gateway, the valve and the cut-off.
+  std::array<Node, hal::kMaxBusJoints + 3> nodes_{};
   std::size_t num_nodes_ = 0;
+  std::size_t valve_node_ = 0;   //!< index in nodes_
+  std::size_t cutoff_node_ = 0;  //!< index in nodes_
   std::array<std::int32_t, hal::kMaxBusJoints> stuck_counts_{};
   std::array<bool, hal::kMaxBusJoints> stuck_{};
 
@@ -164,6 +176,15 @@ class Simulator {
   std::int64_t last_controller_heartbeat_us_ = 0;
   bool command_armed_ = false;
   std::int64_t last_command_us_ = 0;
+
+  // Cut-off node: de-energised (cut) until an enable command reaches it while Operational.
+  hal::pdo::CutoffState cutoff_state_ = hal::pdo::CutoffState::Cut;
+  hal::pdo::CutoffReason cutoff_reason_ = hal::pdo::CutoffReason::NotOperational;
+  bool cutoff_heartbeat_armed_ = false;
+  std::int64_t cutoff_last_heartbeat_us_ = 0;
+  bool cutoff_command_armed_ = false;
+  std::int64_t cutoff_last_command_us_ = 0;
+  bool cutoff_latched_ = false;  //!< cut after a loss: only an NMT Start re-arms it
 
   // UWB gateway: per tag, the next fix time and sequence.
   std::vector<std::int64_t> next_fix_us_;

@@ -1,0 +1,335 @@
+// SPDX-License-Identifier: Apache-2.0
+// The fault and attack campaign against the controller, in stepped time on the in-process bus: the
+// thesis lift, each of the simulator's device faults and each attack on the bus injected while the
+// boom moves at speed. Every outcome is measured in the simulator's true state, not in what the
+// controller believes: the fault named within its detection time, the true machine at rest, no
+// contact, the load above the ground and the load chart never exceeded.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "../sim/sim_rig.hpp"
+#include <mgc/alert_t.hpp>
+
+#include "mgc/firmware/controller.hpp"
+#include "mgc/guidance/rated_capacity.hpp"
+#include "mgc/planning/mobile_crane.hpp"
+
+using namespace mgc;
+using test::SimRig;
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr const char* kSite = "thesis-steel-frame.yaml";
+constexpr int kBoom = 1;
+constexpr int kSwing = 0;
+
+//! The controller on the rig, with the referee's view of the true machine every 50 ms.
+struct Lift {
+  SimRig rig;
+  firmware::Controller controller;
+  firmware::ControllerOutput out{};
+  std::unique_ptr<planning::MachineModel> truth_model;
+  std::unique_ptr<planning::CollisionWorld> truth_world;
+  std::unique_ptr<guidance::RatedCapacityLimiter> chart;
+  planning::Kinematics fk;
+  bool goal_sent = false;
+  std::string log;
+  // The true state's extremes since start.
+  double least_clearance_m = std::numeric_limits<double>::infinity();
+  double least_load_above_ground_m = std::numeric_limits<double>::infinity();
+  double peak_utilisation = 0.0;
+  bool outside_chart = false;
+  //! When the supervisor first left EXECUTING for a stop or a fault, and why. [µs on the rig clock]
+  std::int64_t stop_us = -1;
+  guidance::TransitionReason stop_reason = guidance::TransitionReason::None;
+  //! Cycles in which the snapshot carried an alert of the cut-off's failure.
+  int cutoff_alert_cycles = 0;
+
+  explicit Lift(sim::SimConfig config) : rig(kSite, std::move(config), "campaign"), controller(rig.scenario, firmware::ControllerConfig{}) {
+    planning::Scenario bare = rig.scenario;
+    bare.planner.dilation_m = 0.0;
+    truth_model = planning::build_model(bare);
+    truth_world = planning::build_world(bare, *truth_model);
+    const auto* crane = dynamic_cast<const planning::MobileCrane*>(truth_model.get());
+    REQUIRE(crane != nullptr);
+    chart = std::make_unique<guidance::RatedCapacityLimiter>(*crane, guidance::RatedCapacityConfig{});
+    rig.calibrate_valves();
+    rig.on_cycle = [this](const hal::SensorSnapshot& s) { cycle(s); };
+  }
+
+  [[nodiscard]] double sim_s() const { return static_cast<double>(rig.t_us - SimRig::kSimZeroUs) * 1e-6; }
+
+  void cycle(const hal::SensorSnapshot& s) {
+    firmware::ControllerCommands commands;
+    if (!goal_sent && controller.supervisor().state() == guidance::SupervisorState::Hold) {
+      commands.goal_request = true;
+      goal_sent = true;
+    }
+    out = controller.step(s, rig.cycle_us, commands, false);
+    if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
+    rig.hal->set_pilot_enabled(out.pilot_enable);
+    for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
+    if (out.supervisor.transitioned) {
+      log += std::to_string(sim_s()) + " s " + guidance::to_string(out.supervisor.state) + " (" +
+             guidance::to_string(out.supervisor.reason) + ")\n";
+      if (stop_us < 0 && goal_sent &&
+          (out.supervisor.state == guidance::SupervisorState::Stopping || out.supervisor.state == guidance::SupervisorState::Fault)) {
+        stop_us = s.t_us;
+        stop_reason = out.supervisor.reason;
+      }
+    }
+    const firmware::GuidanceSnapshot& g = controller.snapshot();
+    for (int a = 0; a < g.num_alerts; ++a) {
+      const firmware::SnapshotAlert& alert = g.alerts[static_cast<std::size_t>(a)];
+      if (alert.severity == mgc::alert_t::SEVERITY_FAULT &&
+          alert.value == static_cast<double>(static_cast<int>(guidance::TransitionReason::CutoffFailed))) {
+        ++cutoff_alert_cycles;
+      }
+    }
+    if (s.cycle % 5 == 0) measure_truth();
+  }
+
+  [[nodiscard]] planning::JointVector true_q() const {
+    planning::JointVector q(controller.num_joints());
+    for (int j = 0; j < controller.num_joints(); ++j) q[j] = rig.sim->truth().position[static_cast<std::size_t>(j)];
+    return q;
+  }
+
+  void measure_truth() {
+    const planning::JointVector q = true_q();
+    for (std::size_t d = 0; d < rig.scenario.dynamic_obstacles.size(); ++d) {
+      truth_world->set_dynamic_pose(static_cast<int>(d), rig.sim->obstacle_pose(d));
+    }
+    least_clearance_m = std::min(least_clearance_m, truth_world->clearance(q).distance_m);
+    truth_model->forward_kinematics(q, fk);
+    const auto& names = truth_model->key_point_names();
+    const auto load = std::find(names.begin(), names.end(), "load_bottom");
+    REQUIRE(load != names.end());
+    least_load_above_ground_m = std::min(least_load_above_ground_m, fk.points[static_cast<std::size_t>(load - names.begin())].z());
+    planning::JointVector still = planning::JointVector::Zero(q.size());
+    const guidance::RatedCapacityResult r = chart->limit_velocity(q, chart->task_load_lb(), still);
+    peak_utilisation = std::max(peak_utilisation, r.utilisation);
+    outside_chart = outside_chart || r.stage == guidance::RclStage::OutsideChart;
+  }
+
+  [[nodiscard]] bool truly_at_rest() const {
+    for (int j = 0; j < controller.num_joints(); ++j) {
+      if (std::abs(rig.sim->truth().velocity[static_cast<std::size_t>(j)]) > 1e-6) return false;
+    }
+    return true;
+  }
+};
+
+std::vector<std::string> joint_names() {
+  std::vector<std::string> names;
+  for (const auto& j : planning::io::load_scenario(test::scenario_path(kSite)).machine.joints) names.push_back(j.name);
+  return names;
+}
+
+//! A simulation time at which the boom moves at over 60 % of its speed in the fault-free lift
+//! (same seed, same plan: the faulted runs are identical up to their fault). [s]
+double boom_moving_s() {
+  static const double t_s = [] {
+    Lift nominal(SimRig::quiet_config());
+    const double v_max = nominal.controller.model().joints()[kBoom].max_velocity;
+    for (int block = 0; block < 1200; ++block) {
+      nominal.rig.run(100'000);
+      if (std::abs(nominal.rig.sim->truth().velocity[kBoom]) > 0.6 * v_max) return nominal.sim_s() + 0.3;
+    }
+    return -1.0;
+  }();
+  REQUIRE(t_s > 0.0);
+  return t_s;
+}
+
+//! Runs the lift with the faults until fault_s + after_s, and checks what every case shares: the
+//! fault ends the lift in FAULT for `reason` within detect_s, no contact, load above ground, chart
+//! kept, and the true machine at rest.
+struct Outcome {
+  double detect_s = 0.0;        //!< fault to the supervisor's stop or fault [s]
+  double boom_travel_deg = 0.0; //!< true boom motion from the fault to the end [deg]
+  double swing_travel_deg = 0.0;
+};
+
+Outcome expect_caught(Lift& lift, double fault_s, guidance::TransitionReason reason, double detect_s, double after_s = 15.0) {
+  lift.rig.run(SimRig::at_sim_s(fault_s) - lift.rig.t_us);
+  INFO(lift.log);
+  REQUIRE(lift.controller.supervisor().state() == guidance::SupervisorState::Executing);
+  const double boom_at_fault = lift.rig.sim->truth().position[kBoom];
+  const double swing_at_fault = lift.rig.sim->truth().position[kSwing];
+  lift.rig.run(static_cast<std::int64_t>(after_s * 1e6));
+  INFO(lift.log);
+  Outcome o;
+  o.detect_s = static_cast<double>(lift.stop_us - SimRig::at_sim_s(fault_s)) * 1e-6;
+  o.boom_travel_deg = std::abs(lift.rig.sim->truth().position[kBoom] - boom_at_fault) / kDeg;
+  o.swing_travel_deg = std::abs(lift.rig.sim->truth().position[kSwing] - swing_at_fault) / kDeg;
+  CAPTURE(o.detect_s, o.boom_travel_deg, o.swing_travel_deg, lift.least_clearance_m, lift.least_load_above_ground_m,
+          lift.peak_utilisation);
+  CHECK(lift.stop_reason == reason);
+  CHECK(lift.controller.supervisor().state() == guidance::SupervisorState::Fault);
+  CHECK(lift.controller.supervisor().reason() == reason);
+  CHECK(lift.stop_us >= SimRig::at_sim_s(fault_s));
+  CHECK(o.detect_s <= detect_s);
+  CHECK(lift.truly_at_rest());
+  CHECK(lift.least_clearance_m > 0.0);
+  CHECK(lift.least_load_above_ground_m > 0.0);
+  CHECK_FALSE(lift.outside_chart);
+  CHECK(lift.peak_utilisation <= 1.0);
+  // The fault is an alert for the operator that names its device.
+  const firmware::GuidanceSnapshot& g = lift.controller.snapshot();
+  bool named = false;
+  for (int i = 0; i < g.num_alerts; ++i) {
+    const firmware::SnapshotAlert& a = g.alerts[static_cast<std::size_t>(i)];
+    named = named || (a.severity == mgc::alert_t::SEVERITY_FAULT && a.value == static_cast<double>(static_cast<int>(reason)));
+  }
+  CHECK(named);
+  WARN(guidance::to_string(reason) << ": detected " << o.detect_s << " s after the fault; boom travel " << o.boom_travel_deg
+                                   << " deg, swing " << o.swing_travel_deg << " deg to rest");
+  return o;
+}
+
+sim::SimConfig with_fault(const std::string& text) {
+  sim::SimConfig c = SimRig::quiet_config();
+  c.encoder_noise_counts = 0.5;  // a live encoder, as mgc-sim's default
+  c.faults.push_back(sim::parse_machine_fault(text, planning::io::load_scenario(test::scenario_path(kSite)).machine.joints));
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("campaign: the fault-free lift raises no plausibility fault and keeps its margin", "[firmware][sim][campaign]") {
+  sim::SimConfig config = SimRig::quiet_config();
+  config.encoder_noise_counts = 0.5;
+  Lift lift(config);
+  for (int block = 0; block < 40 && lift.controller.stats().goals_reached == 0; ++block) lift.rig.run(5'000'000);
+  INFO(lift.log);
+  REQUIRE(lift.controller.stats().goals_reached == 1);
+  CHECK(lift.controller.stats().plausibility_fault == guidance::PlausibilityFault::None);
+  CHECK(lift.controller.stats().pilot_cuts == 0);
+  CHECK(lift.controller.stats().plausibility_peak_ratio < 0.5);
+  CHECK(lift.least_load_above_ground_m > 0.0);
+  CHECK(lift.peak_utilisation <= 1.0);
+  WARN("fault-free lift: plausibility peak ratio " << lift.controller.stats().plausibility_peak_ratio);
+}
+
+TEST_CASE("campaign: a stuck boom encoder is found within 0.3 s, the boom stopped", "[firmware][sim][campaign]") {
+  const double t = boom_moving_s();
+  Lift lift(with_fault("encoder-stuck:boom_elevation@" + std::to_string(t)));
+  const Outcome o = expect_caught(lift, t, guidance::TransitionReason::EncoderStuck, 0.3);
+  CHECK(lift.controller.stats().plausibility_fault == guidance::PlausibilityFault::EncoderStuck);
+  // The controlled stop at the deceleration limit from full speed takes the rest of the travel.
+  CHECK(o.boom_travel_deg < 1.5);
+}
+
+TEST_CASE("campaign: a lying boom encoder, by a step and by a drift, is found within 0.3 s", "[firmware][sim][campaign]") {
+  const double t = boom_moving_s();
+  SECTION("a 0.3 deg step") {
+    Lift lift(with_fault("encoder-offset:boom_elevation@" + std::to_string(t) + ",offset=0.3"));
+    (void)expect_caught(lift, t, guidance::TransitionReason::EncoderImplausible, 0.03);
+  }
+  SECTION("a drift of 2 deg/s") {
+    Lift lift(with_fault("encoder-offset:boom_elevation@" + std::to_string(t) + ",rate=2"));
+    lift.rig.run(SimRig::at_sim_s(t) - lift.rig.t_us);
+    const double boom_at_fault = lift.rig.sim->truth().position[kBoom];
+    lift.rig.run(15'000'000);
+    INFO(lift.log);
+    const double detect_s = static_cast<double>(lift.stop_us - SimRig::at_sim_s(t)) * 1e-6;
+    CAPTURE(detect_s);
+    const bool motion_fault = lift.stop_reason == guidance::TransitionReason::JointRunaway ||
+                              lift.stop_reason == guidance::TransitionReason::JointNotFollowing;
+    CHECK(motion_fault);
+    CHECK(detect_s <= 0.3);
+    CHECK(lift.controller.supervisor().state() == guidance::SupervisorState::Fault);
+    CHECK(lift.truly_at_rest());
+    CHECK(lift.least_load_above_ground_m > 0.0);
+    CHECK(lift.peak_utilisation <= 1.0);
+    WARN("drift lie: detected " << detect_s << " s, boom travel "
+                                << std::abs(lift.rig.sim->truth().position[kBoom] - boom_at_fault) / kDeg << " deg");
+  }
+}
+
+TEST_CASE("campaign: a valve that ignores commands is found within 0.3 s and stopped through the cut-off", "[firmware][sim][campaign]") {
+  const double t = boom_moving_s();
+  Lift lift(with_fault("valve-ignore@" + std::to_string(t)));
+  const Outcome o = expect_caught(lift, t, guidance::TransitionReason::ValveNotObeying, 0.3);
+  CHECK(lift.controller.stats().pilot_cuts >= 1);
+  CHECK_FALSE(lift.rig.sim->truth().pilot_pressure);
+  // The detection's travel plus the boom's stop from 80 % speed at its acceleration limit, as the
+  // simulated actuator decelerates once its spool is neutral: 0.1 + 0.67 deg.
+  CHECK(o.boom_travel_deg < 1.0);
+}
+
+TEST_CASE("campaign: a cut-off that does not cut is alerted at once, with the valve's own stop left", "[firmware][sim][campaign]") {
+  const double t = boom_moving_s();
+  SECTION("with a lost encoder: the FAULT asks for the cut, pressure stays, the valve's stop holds") {
+    sim::SimConfig config = with_fault("cutoff-fail@" + std::to_string(t));
+    config.faults.push_back(sim::parse_fault("heartbeat-lost:swing@" + std::to_string(t), joint_names()));
+    Lift lift(config);
+    lift.rig.run(SimRig::at_sim_s(t) - lift.rig.t_us);
+    REQUIRE(lift.cutoff_alert_cycles == 0);
+    lift.rig.run(15'000'000);
+    INFO(lift.log);
+    CHECK(lift.stop_reason == guidance::TransitionReason::EncoderMissing);
+    CHECK(lift.controller.supervisor().state() == guidance::SupervisorState::Fault);
+    CHECK_FALSE(lift.out.pilot_enable);
+    CHECK(lift.rig.sim->truth().pilot_pressure);
+    CHECK(lift.cutoff_alert_cycles > 0);
+    CHECK(lift.truly_at_rest());
+  }
+  SECTION("with a valve that ignores commands: both channels failed, the operator told within 0.2 s") {
+    sim::SimConfig config = with_fault("cutoff-fail@" + std::to_string(t));
+    config.faults.push_back(sim::parse_fault("valve-ignore@" + std::to_string(t), joint_names()));
+    Lift lift(config);
+    lift.rig.run(SimRig::at_sim_s(t) - lift.rig.t_us);
+    lift.rig.run(1'000'000);
+    INFO(lift.log);
+    CHECK(lift.stop_reason == guidance::TransitionReason::ValveNotObeying);
+    CHECK(lift.cutoff_alert_cycles > 0);
+    CHECK(lift.rig.sim->truth().pilot_pressure);
+    // Neither channel stops it: only the machine's own emergency stop is left.
+    CHECK(std::abs(lift.rig.sim->truth().velocity[kBoom]) > 0.1 * lift.controller.model().joints()[kBoom].max_velocity);
+  }
+}
+
+TEST_CASE("campaign: the cut-off node's heartbeat lost ends in a controlled stop and FAULT", "[firmware][sim][campaign]") {
+  const double t = boom_moving_s();
+  Lift lift(with_fault("heartbeat-lost:cutoff@" + std::to_string(t)));
+  (void)expect_caught(lift, t, guidance::TransitionReason::CutoffLost, 0.4);
+}
+
+TEST_CASE("campaign: forged encoder frames on the bus are refused as implausible, nothing moves for them", "[firmware][sim][campaign]") {
+  const double t = boom_moving_s();
+  struct Attack {
+    const char* what;
+    int joint;
+    bool extreme;  //!< INT32_MAX - 1 counts instead of a plausible lie
+  };
+  for (const Attack attack : {Attack{"20 deg off on the swing", kSwing, false}, Attack{"INT32 extreme on the boom", kBoom, true}}) {
+    CAPTURE(attack.what);
+    Lift lift(with_fault("tag-noise:99@1000"));  // a fault that never starts: the same noise as the other cases
+    const hal::BusPlan& plan = lift.rig.sim->plan();
+    const std::int64_t start_us = SimRig::at_sim_s(t);
+    const std::int64_t end_us = start_us + 2'000'000;
+    lift.rig.before_read = [&] {
+      if (lift.rig.t_us <= start_us || lift.rig.t_us > end_us) return;
+      const double truth = lift.rig.sim->truth().position[static_cast<std::size_t>(attack.joint)];
+      const auto lie = hal::pdo::si_to_counts(truth - 20.0 * kDeg, plan.encoders[static_cast<std::size_t>(attack.joint)].kind);
+      const std::int32_t counts = attack.extreme ? INT32_MAX - 1 : lie.value;
+      const auto frame = hal::pdo::encode_encoder_position({plan.encoders[static_cast<std::size_t>(attack.joint)].node_id, counts, 0});
+      // Two per cycle: 200 frames per second, as the campaign sent them.
+      (void)lift.rig.third_party->send(frame.value);
+      (void)lift.rig.third_party->send(frame.value);
+    };
+    const Outcome o = expect_caught(lift, t, guidance::TransitionReason::EncoderImplausible, 0.03);
+    // The swing stood still when the lie began: the lie moved it by nothing.
+    CHECK(o.swing_travel_deg < 0.05);
+  }
+}
