@@ -16,6 +16,17 @@ namespace {
 //! must not wait a step for a rounding error. [s]
 constexpr double kTimeSlackS = 1e-9;
 
+//! A load set down on the ground touches it at 0; rounding in the kinematics must not count it as
+//! below, as planning's load-above-ground rule allows the same. [m]
+constexpr double kGroundToleranceM = 1e-9;
+
+//! A chart utilisation as a percentage with one decimal.
+std::string percent1(double utilisation) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %%", 100.0 * utilisation);
+  return buf;
+}
+
 //! Two decimals: centimetres and centiseconds, as mgc's summary prints them.
 std::string fixed2(double value) {
   char buf[32];
@@ -50,6 +61,24 @@ TruthMonitor::TruthMonitor(const planning::Scenario& scenario, TruthMonitorConfi
     throw std::invalid_argument(std::string("truth monitor: ") + e.what());
   }
   q_wrapped_ = planning::JointVector::Zero(model_->dof());
+  // The single cranes name their hook "hook" and the load's bottom centre "load_bottom". An
+  // excavator has neither, and its bucket digs below the ground by design; the dual crane's
+  // "hook" is the girder's centre, not its underside, and mgc does not drive that pair.
+  if (model_->kind() != planning::MachineKind::Excavator) {
+    const int hook = model_->key_point_index("hook");
+    const int load_bottom = model_->key_point_index("load_bottom");
+    if (hook >= 0 && load_bottom >= 0) {
+      hook_point_ = hook;
+      load_bottom_point_ = load_bottom;
+    }
+  }
+  // The controller limits a mobile crane's rated capacity when the scenario has a lift task; the
+  // dual crane's pair is no MobileCrane, and rates each cable's tension instead.
+  if (const auto* crane = dynamic_cast<const planning::MobileCrane*>(model_.get());
+      crane != nullptr && scenario.task && !crane->chart().boom_lengths_ft.empty() && !crane->chart().radii_ft.empty()) {
+    crane_ = crane;
+    chart_load_lb_ = guidance::RatedCapacityLimiter(*crane, guidance::RatedCapacityConfig{}).task_load_lb();
+  }
   if (scenario.start.size() != model_->dof()) {
     throw std::invalid_argument("truth monitor: the scenario's start has " + std::to_string(scenario.start.size()) +
                                 " joints, its machine " + std::to_string(model_->dof()));
@@ -105,6 +134,7 @@ const TruthSample& TruthMonitor::measure(double t_s, const planning::JointVector
     }
     s.envelope = envelope_->nearest(q_wrapped_);
   }
+  measure_ground_and_chart(s, q);
 
   TruthSummary& m = summary_;
   ++m.samples;
@@ -128,7 +158,57 @@ const TruthSample& TruthMonitor::measure(double t_s, const planning::JointVector
       m.least_envelope_t_s = t_s;
     }
   }
+  if (hook_point_ >= 0) {
+    // The load's bottom is the lowest of what hangs from the hook.
+    const double ground_m = s.load_ground_clearance_m;
+    if (ground_m < -kGroundToleranceM) ++m.samples_below_ground;
+    if (ground_m < m.least_ground_clearance_m) {
+      m.least_ground_clearance_m = ground_m;
+      m.least_ground_clearance_t_s = t_s;
+    }
+    if (s.hook_ground_clearance_m < m.least_hook_ground_clearance_m) {
+      m.least_hook_ground_clearance_m = s.hook_ground_clearance_m;
+      m.least_hook_ground_clearance_t_s = t_s;
+    }
+  }
+  if (crane_ != nullptr) {
+    if (s.chart_utilisation > 1.0) ++m.samples_chart_exceeded;
+    if (!s.chart.in_chart) ++m.samples_outside_chart;
+    // The first sample sets the peak even at 0 utilisation, so that its time is never NaN.
+    if (s.chart_utilisation > m.peak_chart_utilisation || std::isnan(m.peak_chart_utilisation_t_s)) {
+      m.peak_chart_utilisation = s.chart_utilisation;
+      m.peak_chart_utilisation_t_s = t_s;
+      m.peak_chart_boom_length_m = q[planning::MobileCrane::kBoomLength];
+      m.peak_chart_elevation_rad = q[planning::MobileCrane::kBoomElevation];
+    }
+  }
   return s;
+}
+
+void TruthMonitor::measure_ground_and_chart(TruthSample& s, const planning::JointVector& q) noexcept {
+  s.hook_ground_clearance_m = std::numeric_limits<double>::quiet_NaN();
+  s.load_ground_clearance_m = std::numeric_limits<double>::quiet_NaN();
+  if (hook_point_ >= 0) {
+    model_->forward_kinematics(q, kinematics_);
+    // The ground is the plane of the base (docs/scenario-format.md: z = 0 at the base), the
+    // plane planning's load-above-ground rule keeps the load on.
+    const Eigen::Isometry3d& base = model_->world_from_base();
+    const Eigen::Vector3d up = base.linear().col(2);
+    const auto height = [&](int point) {
+      return up.dot(kinematics_.points[static_cast<std::size_t>(point)] - base.translation());
+    };
+    s.hook_ground_clearance_m = height(hook_point_);
+    s.load_ground_clearance_m = height(load_bottom_point_);
+  }
+  s.chart = guidance::RatedCapacity{};
+  s.chart_utilisation = std::numeric_limits<double>::quiet_NaN();
+  if (crane_ != nullptr) {
+    s.chart = guidance::rated_capacity(crane_->chart(), q[planning::MobileCrane::kBoomLength],
+                                       q[planning::MobileCrane::kBoomElevation]);
+    // As the controller's limiter: a cell rated 0 or none at all is no capacity.
+    s.chart_utilisation = s.chart.in_chart && s.chart.capacity_lb > 0.0 ? chart_load_lb_ / s.chart.capacity_lb
+                                                                        : std::numeric_limits<double>::infinity();
+  }
 }
 
 std::string TruthMonitor::summary_line() const {
@@ -174,6 +254,38 @@ std::string TruthMonitor::summary_line() const {
               (p >= 0 && p < static_cast<int>(names.size()) ? names[static_cast<std::size_t>(p)] : std::string("?")) + " to " +
               limit + "), " + std::to_string(m.samples_outside_envelope) + " samples outside";
     }
+  }
+  // Appended piece by piece, as above: no literal + temporary string.
+  if (hook_point_ < 0) {
+    line += "; ground: n/a";
+  } else {
+    line += "; ground: least clearance ";
+    line += fixed2(m.least_ground_clearance_m);
+    line += " m at ";
+    line += fixed2(m.least_ground_clearance_t_s);
+    line += " s (load bottom), of the hook ";
+    line += fixed2(m.least_hook_ground_clearance_m);
+    line += " m at ";
+    line += fixed2(m.least_hook_ground_clearance_t_s);
+    line += " s, ";
+    line += std::to_string(m.samples_below_ground);
+    line += " samples below";
+  }
+  if (crane_ == nullptr) {
+    line += "; load chart: n/a";
+  } else {
+    line += "; load chart: peak utilisation ";
+    line += std::isinf(m.peak_chart_utilisation) ? std::string("outside the chart") : percent1(m.peak_chart_utilisation);
+    line += " at ";
+    line += fixed2(m.peak_chart_utilisation_t_s);
+    char where[64];
+    std::snprintf(where, sizeof where, " s (boom %.2f m at %.1f deg), ", m.peak_chart_boom_length_m,
+                  m.peak_chart_elevation_rad * 180.0 / std::numbers::pi);
+    line += where;
+    line += std::to_string(m.samples_chart_exceeded);
+    line += " samples above 100 %, ";
+    line += std::to_string(m.samples_outside_chart);
+    line += " outside the chart";
   }
   return line;
 }

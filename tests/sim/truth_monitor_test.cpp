@@ -4,7 +4,9 @@
 // and the sampling period when it watches the simulator.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "sim_rig.hpp"
@@ -198,4 +200,226 @@ TEST_CASE("the truth monitor refuses a negative period", "[unit][sim][truth]") {
   sim::TruthMonitorConfig config;
   config.period_s = -0.05;
   CHECK_THROWS_WITH(sim::TruthMonitor(scenario, config), Catch::Contains("truth monitor: the period"));
+}
+
+namespace {
+
+//! The thesis crane's load and hook above its ground by hand: the boom tip stands
+//! boom_foot_height + boom x sin(elevation) above the base plane (the boom pin is on the swing
+//! axis), the cable hangs straight down from it, and the load hangs sling_length under the hook.
+struct HandCrane {
+  explicit HandCrane(const planning::Scenario& scenario) {
+    const auto model = planning::build_model(scenario);
+    boom_foot_height_m = dynamic_cast<const planning::MobileCrane&>(*model).geometry().boom_foot_height_m;
+    sling_m = scenario.task->sling_length_m;
+    load_height_m = scenario.task->load_size_m.z();
+  }
+  [[nodiscard]] double hook_m(const planning::JointVector& q) const {
+    return boom_foot_height_m + q[2] * std::sin(q[1]) - q[3];
+  }
+  [[nodiscard]] double load_bottom_m(const planning::JointVector& q) const { return hook_m(q) - sling_m - load_height_m; }
+  //! The cable length that puts the load's bottom at height_m. [m]
+  [[nodiscard]] double cable_for_load_at(const planning::JointVector& q, double height_m) const {
+    return boom_foot_height_m + q[2] * std::sin(q[1]) - sling_m - load_height_m - height_m;
+  }
+  double boom_foot_height_m = 0.0;
+  double sling_m = 0.0;
+  double load_height_m = 0.0;
+};
+
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+
+}  // namespace
+
+TEST_CASE("a normal pose has positive ground clearance by hand and a chart utilisation read by hand below 1",
+          "[unit][sim][truth]") {
+  planning::Scenario scenario = load("thesis-steel-frame.yaml");
+  REQUIRE(scenario.task.has_value());
+  // The ground is the base's plane wherever the base stands: raised 1.5 m and turned, the load's
+  // height is still measured from it.
+  scenario.world_from_base = Eigen::Translation3d(5.0, -3.0, 1.5) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ());
+  const HandCrane hand(scenario);
+  sim::TruthMonitor monitor(scenario);
+  REQUIRE(monitor.has_ground_clearance());
+  REQUIRE(monitor.has_load_chart());
+  CHECK(monitor.chart_load_lb() == 20000.0);
+
+  // The start: boom 20 m at 50 deg, cable 14.82 m: the load 0.50 m above the ground.
+  const planning::JointVector q = scenario.start;
+  REQUIRE(q[1] == Approx(50.0 * kDegToRad));
+  REQUIRE(q[2] == Approx(20.0));
+  const sim::TruthSample& s = monitor.measure(4.0, q);
+  CHECK(s.hook_ground_clearance_m == Approx(hand.hook_m(q)).margin(1e-9));
+  CHECK(s.load_ground_clearance_m == Approx(hand.load_bottom_m(q)).margin(1e-9));
+  CHECK(s.load_ground_clearance_m == Approx(0.50).margin(0.01));
+  // The chart by hand (grove-tms870.yaml): 20 m = 65.6 ft reads the 70-ft row; 50 deg elevation is
+  // 40 deg from vertical, and the row's first angle at or beyond it is 43.5 deg (45-ft radius),
+  // rated 24,650 lb.
+  CHECK(s.chart.in_chart);
+  CHECK(s.chart.chart_row == 3);
+  CHECK(s.chart.chart_column == 8);
+  CHECK(s.chart.capacity_lb == 24650.0);
+  CHECK(s.chart_utilisation == Approx(20000.0 / 24650.0).epsilon(1e-12));
+  CHECK(s.chart_utilisation < 1.0);
+
+  const sim::TruthSummary& m = monitor.summary();
+  CHECK(m.samples_below_ground == 0);
+  CHECK(m.least_ground_clearance_m == Approx(hand.load_bottom_m(q)).margin(1e-9));
+  CHECK(m.least_ground_clearance_t_s == 4.0);
+  CHECK(m.least_hook_ground_clearance_m == Approx(hand.hook_m(q)).margin(1e-9));
+  CHECK(m.samples_chart_exceeded == 0);
+  CHECK(m.samples_outside_chart == 0);
+  CHECK(m.peak_chart_utilisation == Approx(20000.0 / 24650.0).epsilon(1e-12));
+  CHECK(m.peak_chart_utilisation_t_s == 4.0);
+  CHECK_THAT(monitor.summary_line(),
+             Catch::Contains("ground: least clearance 0.50 m at 4.00 s (load bottom), of the hook 3.50 m at 4.00 s, 0 samples below") &&
+                 Catch::Contains("load chart: peak utilisation 81.1 % at 4.00 s (boom 20.00 m at 50.0 deg), 0 samples above "
+                                 "100 %, 0 outside the chart"));
+}
+
+TEST_CASE("a load below the ground has a negative ground clearance and is counted, one set down on it is not",
+          "[unit][sim][truth]") {
+  const planning::Scenario scenario = load("thesis-steel-frame.yaml");
+  const HandCrane hand(scenario);
+  sim::TruthMonitor monitor(scenario);
+
+  planning::JointVector on_ground = scenario.start;
+  on_ground[3] = hand.cable_for_load_at(scenario.start, 0.0);
+  planning::JointVector below = scenario.start;
+  below[3] = hand.cable_for_load_at(scenario.start, -1.2);
+
+  const sim::TruthSample& set_down = monitor.measure(1.0, on_ground);
+  CHECK(set_down.load_ground_clearance_m == Approx(0.0).margin(1e-9));
+  CHECK(monitor.summary().samples_below_ground == 0);
+
+  const sim::TruthSample& sunk = monitor.measure(2.0, below);
+  CHECK(sunk.load_ground_clearance_m == Approx(-1.2).margin(1e-9));
+  CHECK(sunk.hook_ground_clearance_m == Approx(hand.hook_m(below)).margin(1e-9));
+  (void)monitor.measure(3.0, scenario.start);
+  (void)monitor.measure(4.0, below);  // a tie later keeps the first time
+
+  const sim::TruthSummary& m = monitor.summary();
+  CHECK(m.samples == 4);
+  CHECK(m.samples_below_ground == 2);
+  CHECK(m.least_ground_clearance_m == Approx(-1.2).margin(1e-9));
+  CHECK(m.least_ground_clearance_t_s == 2.0);
+  CHECK(m.least_hook_ground_clearance_m == Approx(hand.hook_m(below)).margin(1e-9));
+  CHECK(m.least_hook_ground_clearance_t_s == 2.0);
+  CHECK_THAT(monitor.summary_line(), Catch::Contains("ground: least clearance -1.20 m at 2.00 s (load bottom)") &&
+                                         Catch::Contains("2 samples below"));
+}
+
+TEST_CASE("a pose above the chart's capacity or outside the chart is counted, the peak kept with its time",
+          "[unit][sim][truth]") {
+  const planning::Scenario scenario = load("thesis-steel-frame.yaml");
+  sim::TruthMonitor monitor(scenario);
+
+  // 35 deg elevation is 55 deg from vertical: on the 70-ft row the first angle at or beyond it is
+  // 58 deg (55-ft radius), rated 17,500 lb, under the 20,000 lb load.
+  planning::JointVector heavy = scenario.start;
+  heavy[1] = 35.0 * kDegToRad;
+  // The boom lowered past horizontal: every row's last cell is 90 deg from vertical, so no cell
+  // rates it.
+  planning::JointVector below_horizontal = scenario.start;
+  below_horizontal[1] = -2.0 * kDegToRad;
+  // A boom longer than the chart's longest row (110 ft = 33.53 m).
+  planning::JointVector too_long = scenario.start;
+  too_long[2] = 34.0;
+
+  const sim::TruthSample& over = monitor.measure(1.0, heavy);
+  CHECK(over.chart.in_chart);
+  CHECK(over.chart.capacity_lb == 17500.0);
+  CHECK(over.chart_utilisation == Approx(20000.0 / 17500.0).epsilon(1e-12));
+  CHECK(monitor.summary().samples_chart_exceeded == 1);
+  CHECK(monitor.summary().samples_outside_chart == 0);
+  CHECK(monitor.summary().peak_chart_utilisation == Approx(20000.0 / 17500.0).epsilon(1e-12));
+  CHECK_THAT(monitor.summary_line(), Catch::Contains("peak utilisation 114.3 % at 1.00 s (boom 20.00 m at 35.0 deg)"));
+
+  (void)monitor.measure(2.0, scenario.start);
+  const sim::TruthSample& outside = monitor.measure(3.0, below_horizontal);
+  CHECK_FALSE(outside.chart.in_chart);
+  CHECK(std::isinf(outside.chart_utilisation));
+  CHECK(outside.chart_utilisation > 0.0);
+  const sim::TruthSample& long_boom = monitor.measure(4.0, too_long);
+  CHECK_FALSE(long_boom.chart.in_chart);
+  CHECK(std::isinf(long_boom.chart_utilisation));
+
+  const sim::TruthSummary& m = monitor.summary();
+  CHECK(m.samples == 4);
+  CHECK(m.samples_chart_exceeded == 3);  // outside the chart counts as exceeded too
+  CHECK(m.samples_outside_chart == 2);
+  CHECK(std::isinf(m.peak_chart_utilisation));
+  CHECK(m.peak_chart_utilisation_t_s == 3.0);
+  CHECK(m.peak_chart_elevation_rad == Approx(-2.0 * kDegToRad));
+  CHECK_THAT(monitor.summary_line(), Catch::Contains("load chart: peak utilisation outside the chart at 3.00 s (boom 20.00 m "
+                                                     "at -2.0 deg), 3 samples above 100 %, 2 outside the chart"));
+}
+
+TEST_CASE("a tower crane's load is measured against the ground without a chart, an excavator's bucket neither",
+          "[unit][sim][truth]") {
+  const planning::Scenario tower = load("thesis-steel-frame-tower.yaml");
+  sim::TruthMonitor tower_monitor(tower);
+  CHECK(tower_monitor.has_ground_clearance());
+  CHECK_FALSE(tower_monitor.has_load_chart());
+  // q = (slew, trolley radius, hook height above the base): the load hangs sling + height under it.
+  planning::JointVector q = tower.start;
+  q[2] = 1.0;
+  const sim::TruthSample& s = tower_monitor.measure(1.0, q);
+  CHECK(s.hook_ground_clearance_m == Approx(1.0).margin(1e-9));
+  CHECK(s.load_ground_clearance_m == Approx(1.0 - tower.task->sling_length_m - tower.task->load_size_m.z()).margin(1e-9));
+  CHECK(std::isnan(s.chart_utilisation));
+  CHECK(tower_monitor.summary().samples_below_ground == 1);
+  CHECK(tower_monitor.summary().samples_chart_exceeded == 0);
+  CHECK_THAT(tower_monitor.summary_line(), Catch::Contains("1 samples below; load chart: n/a"));
+
+  const planning::Scenario excavator = load("excavator-cycle.yaml");
+  sim::TruthMonitor excavator_monitor(excavator);
+  CHECK_FALSE(excavator_monitor.has_ground_clearance());
+  CHECK_FALSE(excavator_monitor.has_load_chart());
+  const sim::TruthSample& e = excavator_monitor.measure(1.0, excavator.start);
+  CHECK(std::isnan(e.load_ground_clearance_m));
+  CHECK(std::isnan(e.hook_ground_clearance_m));
+  CHECK(std::isnan(e.chart_utilisation));
+  CHECK(excavator_monitor.summary().samples_below_ground == 0);
+  CHECK(std::isinf(excavator_monitor.summary().least_ground_clearance_m));
+  CHECK_THAT(excavator_monitor.summary_line(), Catch::EndsWith("; ground: n/a; load chart: n/a"));
+}
+
+TEST_CASE("the truth monitor sees the simulated crane lower its load below the ground", "[unit][sim][truth]") {
+  test::SimRig rig("thesis-steel-frame.yaml", test::SimRig::quiet_config(), "truth-ground");
+  const HandCrane hand(rig.scenario);
+  sim::TruthMonitor monitor(rig.scenario);
+  rig.start();
+  REQUIRE(rig.last->valve_active());
+  // The load starts 0.5 m above the ground; paying the cable out at full speed for 4 s (2 s of
+  // them accelerating) sinks it.
+  rig.command[3] = rig.scenario.machine.joints[3].max_velocity;
+  const std::int64_t end_us = rig.t_us + 4'000'000;
+  planning::JointVector q(4);
+  double least_by_hand_m = std::numeric_limits<double>::infinity();
+  int below_by_hand = 0;
+  int sampled = 0;
+  while (rig.t_us < end_us) {
+    rig.run(test::SimRig::kPhysicsUs);
+    if (!monitor.sample(*rig.sim)) continue;
+    for (int j = 0; j < 4; ++j) q[j] = rig.sim->truth().position[static_cast<std::size_t>(j)];
+    CAPTURE(q.transpose());
+    CHECK(monitor.last().load_ground_clearance_m == Approx(hand.load_bottom_m(q)).margin(1e-9));
+    CHECK(monitor.last().hook_ground_clearance_m == Approx(hand.hook_m(q)).margin(1e-9));
+    least_by_hand_m = std::min(least_by_hand_m, hand.load_bottom_m(q));
+    below_by_hand += hand.load_bottom_m(q) < 0.0 ? 1 : 0;
+    ++sampled;
+  }
+  REQUIRE(least_by_hand_m < -0.3);
+  const sim::TruthSummary& m = monitor.summary();
+  CHECK(m.samples == static_cast<std::uint64_t>(sampled));
+  CHECK(m.samples_below_ground == static_cast<std::uint64_t>(below_by_hand));
+  CHECK(below_by_hand > 0);
+  CHECK(below_by_hand < sampled);
+  CHECK(m.least_ground_clearance_m == Approx(least_by_hand_m).margin(1e-9));
+  // Still sinking at the end: the least is the last sample's.
+  CHECK(m.least_ground_clearance_t_s == monitor.last().t_s);
+  // The chart does not change with the cable: the start's cell all along.
+  CHECK(m.samples_chart_exceeded == 0);
+  CHECK(m.peak_chart_utilisation == Approx(20000.0 / 24650.0).epsilon(1e-12));
 }

@@ -55,8 +55,9 @@ rows=$(($(wc -l <"$tmp/healthy.csv") - 1))
 [ "$rows" -ge 300 ] && [ "$rows" -le 360 ] || fail "truth CSV: $rows rows for 3.5 s at 10 ms"
 grep -q 'stopped at 3.5' "$tmp/healthy.sim" || fail "no summary: $(cat "$tmp/healthy.sim")"
 grep -q ' 0 malformed, 0 unknown ids' "$tmp/healthy.sim" || fail "mgc-sim saw malformed frames: $(cat "$tmp/healthy.sim")"
-# The crane stands at its start: its carrier 1.30 m from the frame, crane 2 parked 24.2 m away.
-grep -Eq '^mgc-sim: truth: least clearance 1\.30 m at 0\.00 s \(carrier to frame/.*to the dynamic obstacles 24\.20 m .* 0 of (6[0-9]|7[0-9]) samples below 0\.50 m$' \
+# The crane stands at its start: its carrier 1.30 m from the frame, crane 2 parked 24.2 m away, the
+# load 0.50 m above the ground, the chart at 20,000 lb / 24,650 lb.
+grep -Eq '^mgc-sim: truth: least clearance 1\.30 m at 0\.00 s \(carrier to frame/.*to the dynamic obstacles 24\.20 m .* 0 of (6[0-9]|7[0-9]) samples below 0\.50 m; ground: least clearance 0\.50 m at 0\.00 s \(load bottom\), of the hook 3\.50 m at 0\.00 s, 0 samples below; load chart: peak utilisation 81\.1 % at 0\.00 s \(boom 20\.00 m at 50\.0 deg\), 0 samples above 100 %, 0 outside the chart$' \
   "$tmp/healthy.sim" || fail "no truth line, or not the start's clearance: $(cat "$tmp/healthy.sim")"
 tail -1 "$tmp/healthy.csv" | grep -Eq ',1\.3000,6\.5[0-9]+,24\.20[0-9]+$' || fail "truth CSV clearance columns: $(tail -1 "$tmp/healthy.csv")"
 
