@@ -46,6 +46,8 @@ class TruthLog {
       out_ << ",clearance_m,moving_clearance_m";
       if (monitor_->has_dynamic_obstacles()) out_ << ",dynamic_clearance_m";
       if (monitor_->has_envelope()) out_ << ",envelope_m";
+      if (monitor_->has_ground_clearance()) out_ << ",load_ground_m,hook_ground_m";
+      if (monitor_->has_load_chart()) out_ << ",chart_utilisation";
     }
     out_ << '\n';
     revolute_.reserve(scenario.machine.joints.size());
@@ -80,6 +82,14 @@ class TruthLog {
       }
       if (monitor_->has_envelope()) {
         std::snprintf(buf, sizeof buf, ",%.4f", m.envelope.distance_m);
+        out_ << buf;
+      }
+      if (monitor_->has_ground_clearance()) {
+        std::snprintf(buf, sizeof buf, ",%.4f,%.4f", m.load_ground_clearance_m, m.hook_ground_clearance_m);
+        out_ << buf;
+      }
+      if (monitor_->has_load_chart()) {
+        std::snprintf(buf, sizeof buf, ",%.4f", m.chart_utilisation);
         out_ << buf;
       }
     }

@@ -49,7 +49,7 @@ run_pair healthy 0
 grep -q 'joint boom_length  *20.0000 m   alive' "$tmp/healthy.out" || fail "healthy: boom length not read as 20 m: $(tail -12 "$tmp/healthy.out")"
 grep -Eq 'tag +1 .* valid' "$tmp/healthy.out" || fail "healthy: tag 1 not valid"
 grep -q 'malformed=0 unknown=0' "$tmp/healthy.out" || fail "healthy: malformed or unknown frames"
-head -1 "$tmp/healthy.csv" | grep -q '^t_s,swing_deg,swing_velocity_deg_s,swing_spool,.*,valve_state,valve_reason,crane-2_x_m,crane-2_y_m,crane-2_z_m,crane-2_yaw_deg,clearance_m,moving_clearance_m,dynamic_clearance_m$' ||
+head -1 "$tmp/healthy.csv" | grep -q '^t_s,swing_deg,swing_velocity_deg_s,swing_spool,.*,valve_state,valve_reason,crane-2_x_m,crane-2_y_m,crane-2_z_m,crane-2_yaw_deg,clearance_m,moving_clearance_m,dynamic_clearance_m,load_ground_m,hook_ground_m,chart_utilisation$' ||
   fail "truth CSV header: $(head -1 "$tmp/healthy.csv")"
 rows=$(($(wc -l <"$tmp/healthy.csv") - 1))
 [ "$rows" -ge 300 ] && [ "$rows" -le 360 ] || fail "truth CSV: $rows rows for 3.5 s at 10 ms"
@@ -59,7 +59,7 @@ grep -q ' 0 malformed, 0 unknown ids' "$tmp/healthy.sim" || fail "mgc-sim saw ma
 # load 0.50 m above the ground, the chart at 20,000 lb / 24,650 lb.
 grep -Eq '^mgc-sim: truth: least clearance 1\.30 m at 0\.00 s \(carrier to frame/.*to the dynamic obstacles 24\.20 m .* 0 of (6[0-9]|7[0-9]) samples below 0\.50 m; ground: least clearance 0\.50 m at 0\.00 s \(load bottom\), of the hook 3\.50 m at 0\.00 s, 0 samples below; load chart: peak utilisation 81\.1 % at 0\.00 s \(boom 20\.00 m at 50\.0 deg\), 0 samples above 100 %, 0 outside the chart$' \
   "$tmp/healthy.sim" || fail "no truth line, or not the start's clearance: $(cat "$tmp/healthy.sim")"
-tail -1 "$tmp/healthy.csv" | grep -Eq ',1\.3000,6\.5[0-9]+,24\.20[0-9]+$' || fail "truth CSV clearance columns: $(tail -1 "$tmp/healthy.csv")"
+tail -1 "$tmp/healthy.csv" | grep -Eq ',1\.3000,6\.5[0-9]+,24\.20[0-9]+,0\.50[0-9]+,3\.50[0-9]+,0\.811[0-9]+$' || fail "truth CSV clearance columns: $(tail -1 "$tmp/healthy.csv")"
 
 run_pair dropout 1 --fault encoder-dropout:cable_length@1 --monitor-period-ms 0
 grep -q 'joint cable_length .* stale' "$tmp/dropout.out" || fail "dropout: cable_length not stale: $(tail -12 "$tmp/dropout.out")"
