@@ -3,6 +3,7 @@
 
 #include <mgc/alert_t.hpp>
 #include <mgc/command_status_t.hpp>
+#include <mgc/health_counters_t.hpp>
 #include <mgc/loop_timing_t.hpp>
 #include <mgc/machine_state_t.hpp>
 #include <mgc/operator_guidance_t.hpp>
@@ -22,11 +23,8 @@ namespace {
 // with the loop's alert ids (which count up from 1).
 constexpr std::int32_t kCommandAlertIdBase = 0x40000000;
 
-std::int64_t monotonic_us() noexcept {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
+static_assert(RefusalCounter::kReasons == health_counters_t::MAX_REASONS);
+static_assert(command_status_t::NUM_REASONS <= health_counters_t::MAX_REASONS);
 
 std::int8_t machine_kind_code(planning::MachineKind kind) noexcept {
   switch (kind) {
@@ -63,20 +61,61 @@ alert_t to_message(const SnapshotAlert& a, bool active, std::int64_t now_us) noe
 
 std::int64_t to_i64(std::uint64_t v) noexcept { return static_cast<std::int64_t>(v); }
 
+std::string errno_text(int err) { return std::strerror(err); }
+
 }  // namespace
+
+std::int64_t realtime_clock_us() noexcept {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::int64_t monotonic_clock_us() noexcept {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+bool RefusalCounter::record(std::int8_t reason, std::int64_t now_us) noexcept {
+  // Out-of-range codes share the REASON_UNKNOWN slot, so every refusal is counted somewhere.
+  const std::size_t slot = reason > 0 && static_cast<std::size_t>(reason) < kReasons ? static_cast<std::size_t>(reason) : 0;
+  by_reason_[slot].fetch_add(1, std::memory_order_relaxed);
+  total_.fetch_add(1, std::memory_order_relaxed);
+  if (alerted_ && now_us - last_alert_us_ < alert_period_us_) return false;
+  alerted_ = true;
+  last_alert_us_ = now_us;
+  alerts_.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
+std::uint64_t RefusalCounter::count(std::int8_t reason) const noexcept {
+  if (reason < 0 || static_cast<std::size_t>(reason) >= kReasons) return 0;
+  return by_reason_[static_cast<std::size_t>(reason)].load(std::memory_order_relaxed);
+}
 
 FeedPublisher::FeedPublisher(const FeedConfig& config, const CommandKey& key, SnapshotQueue& snapshots,
                              CommandQueue& commands)
     : config_(config),
       lcm_(config.lcm_url),
-      auth_(key, config.sequence_floor),
+      auth_(key, config.sequence_floor, config.max_skew_us),
       snapshots_(snapshots),
       commands_(commands),
+      refusals_(config.refusal_alert_period_us),
       encode_buf_(4096),
       next_command_alert_id_(kCommandAlertIdBase) {
   if (!lcm_.good()) {
     throw std::runtime_error("LCM: cannot open provider " + config.lcm_url +
                              " (for udpm on loopback: a multicast route on lo, see docs/operator-feed.md)");
+  }
+  if (!config_.command_state_path.empty()) {
+    const std::vector<SenderCounter> saved = load_command_state(config_.command_state_path);
+    auth_.restore(saved);
+    // Written once now, so that a file that cannot be written is a start error rather than the
+    // first goal's refusal, and the counters raised to the floor are what a crash leaves.
+    if (!save_state()) {
+      const int err = counters_.last_state_save_errno.load();
+      throw CommandStateError("command state file " + config_.command_state_path + ": cannot write (" +
+                              errno_text(err) + "); expected a writable file in a writable directory");
+    }
   }
   lcm_.subscribe(channel::kCommand, &FeedPublisher::on_command, this);
 }
@@ -113,7 +152,7 @@ void FeedPublisher::publish(const char* channel_name, const Msg& msg) {
 }
 
 void FeedPublisher::publish_snapshot(const GuidanceSnapshot& s) {
-  const std::int64_t now_us = monotonic_us();
+  const std::int64_t now_us = config_.monotonic_us();
   const int nj = std::clamp(s.num_joints, 0, kMaxJoints);
 
   machine_state_t state{};
@@ -210,6 +249,22 @@ void FeedPublisher::publish_snapshot(const GuidanceSnapshot& s) {
     // The queue counts its own drops; the loop cannot see them in the snapshot it failed to push.
     t.snapshots_dropped = to_i64(std::max(s.timing.snapshots_dropped, snapshots_.dropped()));
     publish(channel::kLoopTiming, t);
+
+    health_counters_t h{};
+    h.utime = now_us;
+    h.bus_frames_decoded = to_i64(s.bus.decoded);
+    h.bus_unknown_frames = to_i64(s.bus.unknown_id);
+    h.bus_wrong_length = to_i64(s.bus.wrong_length);
+    h.bus_wrong_id = to_i64(s.bus.wrong_id);
+    h.bus_out_of_range = to_i64(s.bus.out_of_range);
+    h.bus_reserved_bits = to_i64(s.bus.reserved_bits);
+    h.bus_other = to_i64(s.bus.other);
+    h.bus_implausible_values = to_i64(s.bus.implausible);
+    h.commands_accepted = to_i64(counters_.commands_accepted.load(std::memory_order_relaxed));
+    h.commands_refused = to_i64(refusals_.total());
+    for (int r = 0; r < health_counters_t::MAX_REASONS; ++r) h.refused_by_reason[r] = to_i64(refusals_.count(static_cast<std::int8_t>(r)));
+    h.refusal_alerts = to_i64(refusals_.alerts());
+    publish(channel::kHealth, h);
   }
   counters_.snapshots_published.fetch_add(1, std::memory_order_relaxed);
 }
@@ -239,6 +294,8 @@ void FeedPublisher::publish_alerts(const GuidanceSnapshot& s, std::int64_t now_u
 
 void FeedPublisher::reject(const operator_command_t& cmd, std::int8_t reason, std::int64_t now_us) {
   counters_.commands_rejected.fetch_add(1, std::memory_order_relaxed);
+  // A flood of refusals raises one alert per period; the counts say how many and why.
+  if (!refusals_.record(reason, now_us)) return;
   alert_t a{};
   a.utime = now_us;
   a.alert_id = next_command_alert_id_++;
@@ -255,11 +312,25 @@ void FeedPublisher::reject(const operator_command_t& cmd, std::int8_t reason, st
   publish(channel::kAlert, a);
 }
 
+bool FeedPublisher::save_state() {
+  if (config_.command_state_path.empty() || auth_.revision() == saved_revision_) return true;
+  const int err = save_command_state(config_.command_state_path, auth_.senders());
+  counters_.last_state_save_errno.store(err, std::memory_order_relaxed);
+  if (err != 0) return false;
+  saved_revision_ = auth_.revision();
+  counters_.state_saves.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
 void FeedPublisher::on_command(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
-  const std::int64_t now_us = monotonic_us();
+  const std::int64_t now_us = config_.monotonic_us();
   operator_command_t cmd{};
   CommandVerdict verdict = auth_.check_bytes(
-      std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size), cmd);
+      std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size), cmd,
+      config_.realtime_us());
+  // Write-ahead: the counter is on disk before the command can move the machine, so a restart
+  // cannot accept it again. A stop changes no counter and is never held up here.
+  if (verdict.accepted && cmd.kind != operator_command_t::KIND_STOP && !save_state()) verdict = {false, command_status_t::REASON_STATE_NOT_SAVED};
 
   if (verdict.accepted) {
     if (cmd.kind == operator_command_t::KIND_STOP) counters_.stops_received.fetch_add(1, std::memory_order_release);

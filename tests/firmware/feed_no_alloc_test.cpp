@@ -10,7 +10,11 @@
 
 #include <catch2/catch.hpp>
 
+#include <unistd.h>
+
+#include <cstdio>
 #include <memory>
+#include <string>
 
 using namespace mgc::firmware;
 using mgc::operator_command_t;
@@ -44,24 +48,35 @@ TEST_CASE("snapshot push/pop and operator words do not allocate", "[unit]") {
   REQUIRE(after - before == 0);
 }
 
-TEST_CASE("command authentication does not allocate", "[unit]") {
+TEST_CASE("command authentication, refusal counting and saving the counters do not allocate", "[unit]") {
   std::array<std::uint8_t, kCommandKeyBytes> bytes{};
   bytes.fill(9);
   const CommandKey key(bytes);
   CommandAuthenticator auth(key);
+  RefusalCounter refusals(1'000'000);
+  constexpr std::int64_t kT0 = 1'700'000'000'000'000;
+  const std::string state_path = "/tmp/mgc_feed_alloc_test_" + std::to_string(::getpid()) + ".state";
   operator_command_t c{};
   c.kind = operator_command_t::KIND_GOAL;
   c.sender_id = 1;
   c.num_joints = 1;
   const long before = allocation_count();
   int accepted = 0;
+  int alerts = 0;
+  int save_errors = 0;
   for (std::int64_t seq = 1; seq <= 100; ++seq) {
-    c.sequence = seq;
+    c.sequence = kT0 + seq;
     sign_command(c, key);
-    accepted += auth.check(c).accepted ? 1 : 0;
-    accepted += auth.check(c).accepted ? 1 : 0;  // the replay, refused
+    accepted += auth.check(c, kT0 + seq).accepted ? 1 : 0;
+    const CommandVerdict replay = auth.check(c, kT0 + seq);  // refused
+    alerts += refusals.record(replay.reason, seq * 1'000) ? 1 : 0;
+    if (seq % 25 == 0) save_errors += save_command_state(state_path, auth.senders()) != 0 ? 1 : 0;
   }
   const long after = allocation_count();
+  std::remove(state_path.c_str());
   REQUIRE(accepted == 100);
+  REQUIRE(alerts == 1);
+  REQUIRE(refusals.total() == 100);
+  REQUIRE(save_errors == 0);
   REQUIRE(after - before == 0);
 }

@@ -5,6 +5,7 @@
 
 #include <mgc/alert_t.hpp>
 #include <mgc/command_status_t.hpp>
+#include <mgc/health_counters_t.hpp>
 #include <mgc/firmware/lcm_feed.hpp>
 #include <mgc/firmware/operator_words.hpp>
 #include <mgc/loop_timing_t.hpp>
@@ -15,9 +16,14 @@
 
 #include <catch2/catch.hpp>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <cerrno>
 #include <chrono>
+#include <cstdio>
+#include <limits>
 #include <memory>
 #include <string>
 #include <thread>
@@ -32,6 +38,27 @@ using mgc::operator_instruction_t;
 namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+// Stepped clocks for the memq cases: CLOCK_REALTIME for the sequences, monotonic for the rates.
+constexpr std::int64_t kT0 = 1'700'000'000'000'000;
+std::atomic<std::int64_t> g_realtime_us{kT0};
+std::atomic<std::int64_t> g_monotonic_us{1'000'000};
+std::int64_t test_realtime_us() noexcept { return g_realtime_us.load(); }
+std::int64_t test_monotonic_us() noexcept { return g_monotonic_us.load(); }
+
+FeedConfig memq_config() {
+  g_realtime_us = kT0;
+  g_monotonic_us = 1'000'000;
+  FeedConfig config;
+  config.lcm_url = "memq://";
+  config.realtime_us = &test_realtime_us;
+  config.monotonic_us = &test_monotonic_us;
+  return config;
+}
+
+std::string temp_path(const char* name) {
+  return "/tmp/mgc_lcm_feed_test_" + std::to_string(::getpid()) + "_" + name;
+}
 
 CommandKey test_key() {
   std::array<std::uint8_t, kCommandKeyBytes> k{};
@@ -48,6 +75,7 @@ struct Recorder {
   std::vector<mgc::plan_t> plans;
   std::vector<mgc::loop_timing_t> timing;
   std::vector<command_status_t> statuses;
+  std::vector<mgc::health_counters_t> health;
 
   template <class Msg>
   static void keep(std::vector<Msg>& into, const lcm::ReceiveBuffer* rbuf) {
@@ -62,6 +90,7 @@ struct Recorder {
   void on_plan(const lcm::ReceiveBuffer* r, const std::string&) { keep(plans, r); }
   void on_timing(const lcm::ReceiveBuffer* r, const std::string&) { keep(timing, r); }
   void on_status(const lcm::ReceiveBuffer* r, const std::string&) { keep(statuses, r); }
+  void on_health(const lcm::ReceiveBuffer* r, const std::string&) { keep(health, r); }
 
   void subscribe(lcm::LCM& lcm) {
     lcm.subscribe(channel::kMachineState, &Recorder::on_state, this);
@@ -71,6 +100,7 @@ struct Recorder {
     lcm.subscribe(channel::kPlan, &Recorder::on_plan, this);
     lcm.subscribe(channel::kLoopTiming, &Recorder::on_timing, this);
     lcm.subscribe(channel::kCommandStatus, &Recorder::on_status, this);
+    lcm.subscribe(channel::kHealth, &Recorder::on_health, this);
   }
 };
 
@@ -127,10 +157,10 @@ void send(lcm::LCM& lcm, const operator_command_t& c) {
   REQUIRE(lcm.publish(channel::kCommand, buf.data(), static_cast<unsigned>(buf.size())) == 0);
 }
 
-operator_command_t signed_goal(std::int64_t sequence, const CommandKey& key) {
+operator_command_t signed_goal(std::int64_t sequence, const CommandKey& key, std::int32_t sender = 3) {
   operator_command_t c{};
   c.kind = operator_command_t::KIND_GOAL;
-  c.sender_id = 3;
+  c.sender_id = sender;
   c.sequence = sequence;
   c.num_joints = 4;
   c.goal_position[0] = 1.0;
@@ -151,8 +181,7 @@ void drain(FeedPublisher& feed) {
 TEST_CASE("snapshots come out on their channels over memq://", "[lcm]") {
   auto snapshots = std::make_unique<SnapshotQueue>();
   auto commands = std::make_unique<CommandQueue>();
-  FeedConfig config;
-  config.lcm_url = "memq://";
+  FeedConfig config = memq_config();
   FeedPublisher feed(config, test_key(), *snapshots, *commands);
   Recorder rec;
   rec.subscribe(feed.lcm());
@@ -207,8 +236,7 @@ TEST_CASE("snapshots come out on their channels over memq://", "[lcm]") {
 TEST_CASE("a changed instruction is published at once, a full queue's drops reach loop_timing_t", "[lcm]") {
   auto snapshots = std::make_unique<SnapshotQueue>();
   auto commands = std::make_unique<CommandQueue>();
-  FeedConfig config;
-  config.lcm_url = "memq://";
+  FeedConfig config = memq_config();
   config.timing_period_us = 0;  // every snapshot, to see the counter move
   FeedPublisher feed(config, test_key(), *snapshots, *commands);
   Recorder rec;
@@ -233,16 +261,17 @@ TEST_CASE("a changed instruction is published at once, a full queue's drops reac
 TEST_CASE("commands: accepted ones reach the loop's queue, rejected ones raise alerts", "[lcm]") {
   auto snapshots = std::make_unique<SnapshotQueue>();
   auto commands = std::make_unique<CommandQueue>();
-  FeedConfig config;
-  config.lcm_url = "memq://";
+  FeedConfig config = memq_config();
   const CommandKey key = test_key();
   FeedPublisher feed(config, key, *snapshots, *commands);
   Recorder rec;
   rec.subscribe(feed.lcm());
 
-  send(feed.lcm(), signed_goal(10, key));
-  send(feed.lcm(), signed_goal(10, key));  // replay
-  operator_command_t tampered = signed_goal(11, key);
+  send(feed.lcm(), signed_goal(kT0 + 10, key));
+  send(feed.lcm(), signed_goal(kT0 + 10, key));  // replay
+  drain(feed);
+  g_monotonic_us += 1'000'000;  // the next refusal is a period later: alerted too
+  operator_command_t tampered = signed_goal(kT0 + 11, key);
   tampered.goal_position[2] = 40.0;
   send(feed.lcm(), tampered);
   operator_command_t stop{};
@@ -254,7 +283,7 @@ TEST_CASE("commands: accepted ones reach the loop's queue, rejected ones raise a
   AcceptedCommand got{};
   REQUIRE(commands->try_pop(got));
   REQUIRE(got.kind == operator_command_t::KIND_GOAL);
-  REQUIRE(got.sequence == 10);
+  REQUIRE(got.sequence == kT0 + 10);
   REQUIRE(got.num_joints == 4);
   REQUIRE(got.goal_position[2] == 25.0);
   REQUIRE(commands->try_pop(got));
@@ -283,11 +312,166 @@ TEST_CASE("commands: accepted ones reach the loop's queue, rejected ones raise a
   REQUIRE(feed.counters().commands_rejected == 2);
 }
 
+TEST_CASE("1000 refusals within a second raise one alert, every refusal is counted by reason", "[lcm]") {
+  auto snapshots = std::make_unique<SnapshotQueue>();
+  auto commands = std::make_unique<CommandQueue>();
+  FeedConfig config = memq_config();
+  const CommandKey key = test_key();
+  const CommandKey wrong(std::array<std::uint8_t, kCommandKeyBytes>{});
+  FeedPublisher feed(config, key, *snapshots, *commands);
+  Recorder rec;
+  rec.subscribe(feed.lcm());
+
+  send(feed.lcm(), signed_goal(kT0, key));  // the real station
+  drain(feed);
+  // 1000 refusals 0.999 ms apart: 0 .. 0.999 s after the first one.
+  for (int i = 0; i < 1000; ++i) {
+    operator_command_t c;
+    if (i % 4 == 0) {
+      c = signed_goal(kT0 + 1 + i, wrong);  // BAD_MAC
+    } else if (i % 4 == 1) {
+      c = signed_goal(kT0, key);  // STALE_SEQUENCE: a replay
+    } else if (i % 4 == 2) {
+      c = signed_goal(std::numeric_limits<std::int64_t>::max(), key);  // FUTURE_SEQUENCE
+    } else {
+      c = signed_goal(kT0 - 60'000'000, key, 50 + i);  // OLD_SEQUENCE, from many sender ids
+    }
+    send(feed.lcm(), c);
+    // memq hands over one message per call, and each subscription queues at most 30: keep up.
+    for (int k = 0; k < 4; ++k) feed.run_once(0);
+    g_monotonic_us += 999;
+  }
+  drain(feed);
+  CHECK(rec.alerts.size() == 1);
+  CHECK(feed.refusals().alerts() == 1);
+  CHECK(feed.refusals().total() == 1000);
+  CHECK(feed.refusals().count(command_status_t::REASON_BAD_MAC) == 250);
+  CHECK(feed.refusals().count(command_status_t::REASON_STALE_SEQUENCE) == 250);
+  CHECK(feed.refusals().count(command_status_t::REASON_FUTURE_SEQUENCE) == 250);
+  CHECK(feed.refusals().count(command_status_t::REASON_OLD_SEQUENCE) == 250);
+  CHECK(rec.statuses.size() == 1001);  // every sender still learns its verdict
+
+  // The real station is still accepted, and a refusal a second after the alert is alerted again.
+  g_realtime_us += 1'000'000;
+  g_monotonic_us += 1'000;  // exactly one period after the first refusal
+  send(feed.lcm(), signed_goal(kT0 + 1'000'000, key));
+  send(feed.lcm(), signed_goal(kT0 + 1'000'000, key));
+  drain(feed);
+  CHECK(rec.statuses[1001].accepted);
+  CHECK(rec.statuses[1002].reason == command_status_t::REASON_STALE_SEQUENCE);
+  CHECK(rec.alerts.size() == 2);
+
+  // The counts reach the feed with the 1 Hz timing, the bus counters from the snapshot with them.
+  auto s = crane_snapshot(1);
+  s->bus.decoded = 900;
+  s->bus.unknown_id = 3;
+  s->bus.wrong_length = 2;
+  s->bus.out_of_range = 1;
+  s->bus.implausible = 4;
+  REQUIRE(snapshots->try_push(*s));
+  drain(feed);
+  REQUIRE(rec.health.size() == 1);
+  const mgc::health_counters_t& h = rec.health[0];
+  CHECK(h.commands_accepted == 2);
+  CHECK(h.commands_refused == 1001);
+  CHECK(h.refused_by_reason[command_status_t::REASON_BAD_MAC] == 250);
+  CHECK(h.refused_by_reason[command_status_t::REASON_STALE_SEQUENCE] == 251);
+  CHECK(h.refused_by_reason[command_status_t::REASON_FUTURE_SEQUENCE] == 250);
+  CHECK(h.refused_by_reason[command_status_t::REASON_OLD_SEQUENCE] == 250);
+  CHECK(h.refused_by_reason[command_status_t::REASON_ACCEPTED] == 0);
+  CHECK(h.refusal_alerts == 2);
+  CHECK(h.bus_frames_decoded == 900);
+  CHECK(h.bus_unknown_frames == 3);
+  CHECK(h.bus_wrong_length == 2);
+  CHECK(h.bus_out_of_range == 1);
+  CHECK(h.bus_implausible_values == 4);
+}
+
+TEST_CASE("the feed saves the counters before the loop sees a goal, a restarted feed refuses its replay", "[lcm]") {
+  const std::string path = temp_path("feed.state");
+  std::remove(path.c_str());
+  const CommandKey key = test_key();
+  const operator_command_t recorded = signed_goal(kT0 + 10, key);
+  {
+    auto snapshots = std::make_unique<SnapshotQueue>();
+    auto commands = std::make_unique<CommandQueue>();
+    FeedConfig config = memq_config();
+    config.command_state_path = path;
+    config.sequence_floor = kT0 - kDefaultCommandSkew_us;
+    FeedPublisher feed(config, key, *snapshots, *commands);
+    send(feed.lcm(), recorded);
+    drain(feed);
+    AcceptedCommand got{};
+    REQUIRE(commands->try_pop(got));
+    REQUIRE(load_command_state(path).size() == 1);
+    REQUIRE(load_command_state(path)[0].last_sequence == kT0 + 10);
+  }
+  // Restarted 1 s later: the recording is inside the clock window and above the new floor.
+  auto snapshots = std::make_unique<SnapshotQueue>();
+  auto commands = std::make_unique<CommandQueue>();
+  FeedConfig config = memq_config();
+  g_realtime_us = kT0 + 1'000'000;
+  config.command_state_path = path;
+  config.sequence_floor = g_realtime_us - kDefaultCommandSkew_us;
+  FeedPublisher feed(config, key, *snapshots, *commands);
+  Recorder rec;
+  rec.subscribe(feed.lcm());
+  send(feed.lcm(), recorded);
+  drain(feed);
+  AcceptedCommand got{};
+  CHECK_FALSE(commands->try_pop(got));
+  REQUIRE(rec.statuses.size() == 1);
+  CHECK(rec.statuses[0].reason == command_status_t::REASON_STALE_SEQUENCE);
+  std::remove(path.c_str());
+}
+
+TEST_CASE("state file: a corrupt or unwritable one stops the start, a failed save refuses the goal", "[lcm]") {
+  const CommandKey key = test_key();
+  auto snapshots = std::make_unique<SnapshotQueue>();
+  auto commands = std::make_unique<CommandQueue>();
+  const std::string corrupt = temp_path("corrupt.state");
+  {
+    std::FILE* f = std::fopen(corrupt.c_str(), "w");
+    REQUIRE(f != nullptr);
+    std::fputs("mgc-command-state 1\nsender 3 oops\n", f);
+    std::fclose(f);
+  }
+  FeedConfig config = memq_config();
+  config.command_state_path = corrupt;
+  REQUIRE_THROWS_WITH(FeedPublisher(config, key, *snapshots, *commands),
+                      Catch::Contains(corrupt) && Catch::Contains("line 2") && Catch::Contains("oops"));
+  std::remove(corrupt.c_str());
+  config.command_state_path = temp_path("no-such-dir") + "/x.state";
+  REQUIRE_THROWS_WITH(FeedPublisher(config, key, *snapshots, *commands), Catch::Contains("cannot write"));
+
+  // The directory disappears while running: the goal is refused, a stop is still obeyed.
+  const std::string dir = temp_path("state-dir");
+  REQUIRE(::mkdir(dir.c_str(), 0700) == 0);
+  config.command_state_path = dir + "/mgc.state";
+  FeedPublisher feed(config, key, *snapshots, *commands);
+  Recorder rec;
+  rec.subscribe(feed.lcm());
+  REQUIRE(std::remove(config.command_state_path.c_str()) == 0);
+  REQUIRE(::rmdir(dir.c_str()) == 0);
+  send(feed.lcm(), signed_goal(kT0 + 1, key));
+  operator_command_t stop{};
+  stop.kind = operator_command_t::KIND_STOP;
+  send(feed.lcm(), stop);
+  drain(feed);
+  REQUIRE(rec.statuses.size() == 2);
+  CHECK(rec.statuses[0].reason == command_status_t::REASON_STATE_NOT_SAVED);
+  CHECK(rec.statuses[1].accepted);
+  CHECK(feed.counters().last_state_save_errno == ENOENT);
+  AcceptedCommand got{};
+  REQUIRE(commands->try_pop(got));
+  CHECK(got.kind == operator_command_t::KIND_STOP);
+  CHECK_FALSE(commands->try_pop(got));
+}
+
 TEST_CASE("a full command queue refuses with QUEUE_FULL but still counts the stop", "[lcm]") {
   auto snapshots = std::make_unique<SnapshotQueue>();
   auto commands = std::make_unique<CommandQueue>();
-  FeedConfig config;
-  config.lcm_url = "memq://";
+  FeedConfig config = memq_config();
   FeedPublisher feed(config, test_key(), *snapshots, *commands);
   Recorder rec;
   rec.subscribe(feed.lcm());
@@ -319,7 +503,8 @@ TEST_CASE("the publisher thread over the default udpm provider on loopback", "[l
   feed.start();
 
   REQUIRE(snapshots->try_push(*crane_snapshot(1)));
-  send(probe, signed_goal(1, key));
+  const std::int64_t sequence = realtime_clock_us();
+  send(probe, signed_goal(sequence, key));
   AcceptedCommand got{};
   bool have_command = false;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
@@ -330,7 +515,7 @@ TEST_CASE("the publisher thread over the default udpm provider on loopback", "[l
   }
   feed.stop();
   REQUIRE(have_command);
-  REQUIRE(got.sequence == 1);
+  REQUIRE(got.sequence == sequence);
   REQUIRE(rec.states.size() == 1);
   REQUIRE(rec.instructions.size() == 1);
   REQUIRE(rec.instructions[0].text == "swing left 32 deg, then boom up 4 deg");

@@ -9,10 +9,12 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 //! Authentication of operator commands (docs/operator-feed.md): a stop is obeyed from anyone;
 //! a goal or an acknowledgement, which can cause motion, needs a valid shared-key MAC
-//! (libsodium crypto_auth, HMAC-SHA-512-256) and a sequence above the sender's last accepted one.
+//! (libsodium crypto_auth, HMAC-SHA-512-256) and a sequence (the sender's CLOCK_REALTIME in µs)
+//! above the sender's last accepted one and within the tolerated skew of the controller's clock.
 namespace mgc::firmware {
 
 inline constexpr std::size_t kCommandKeyBytes = 32;  //!< crypto_auth_KEYBYTES [bytes]
@@ -47,6 +49,9 @@ struct CommandVerdict {
   std::int8_t reason = 0;   //!< command_status_t::REASON_* [enum]
 };
 
+//! Short English name of a command_status_t::REASON_* code, e.g. "bad MAC". Never null.
+[[nodiscard]] const char* command_reason_name(std::int8_t reason) noexcept;
+
 //! The bytes the MAC covers: the LCM encoding of cmd (fingerprint and every field) without the
 //! trailing mac field. Returns the length written into out (0 if out is too small).
 //! RT-safe: no alloc, no lock, no throw.
@@ -55,35 +60,78 @@ std::size_t command_canonical_bytes(const operator_command_t& cmd, std::span<std
 //! Fills cmd.mac for key over command_canonical_bytes(cmd) (the sender's side; tests and tools).
 void sign_command(operator_command_t& cmd, const CommandKey& key) noexcept;
 
-//! Checks commands against the key and a per-sender replay table of fixed capacity.
-//! Replay counters live in memory and start at sequence_floor for every sender at construction:
-//! with the default floor 0 a controller restart forgets them, so senders should use a sequence
-//! that never repeats over the key's life (their CLOCK_REALTIME in µs) and the controller should
-//! pass a floor of its own start time minus the tolerated clock skew (docs/operator-feed.md).
+//! The tolerated difference between a command's sequence (the sender's CLOCK_REALTIME) and the
+//! controller's CLOCK_REALTIME, either way: clocks kept by NTP agree far better, and a recorded
+//! command is useless this long after it was signed. [µs]
+inline constexpr std::int64_t kDefaultCommandSkew_us = 5'000'000;
+
+//! One sender's replay counter.
+struct SenderCounter {
+  std::int32_t sender_id = 0;      //!< [-]
+  std::int64_t last_sequence = 0;  //!< last accepted sequence [µs]
+};
+
+//! Checks commands against the key, the controller's clock and a per-sender replay table of fixed
+//! capacity. A goal or acknowledgement is accepted only when its sequence lies within
+//! [now - max_skew, now + max_skew] of the controller's CLOCK_REALTIME (passed in), above
+//! sequence_floor and above the sender's last accepted sequence. The window bounds any jump: a
+//! signed sequence far in the future is refused and cannot lock the real sender out.
+//! The counters survive a restart through restore() and save_command_state() (the caller's job,
+//! off the control loop); the controller passes sequence_floor = its start time minus max_skew.
 //! Not thread-safe: one thread (the LCM I/O thread) calls check(). RT-safe after construction.
 class CommandAuthenticator {
  public:
   static constexpr std::size_t kMaxSenders = 16;  //!< senders tracked; more are refused [-]
 
-  explicit CommandAuthenticator(const CommandKey& key, std::int64_t sequence_floor = 0);
+  //! max_skew_us must be > 0; throws std::invalid_argument otherwise. Start-up only.
+  explicit CommandAuthenticator(const CommandKey& key, std::int64_t sequence_floor = 0,
+                                std::int64_t max_skew_us = kDefaultCommandSkew_us);
 
-  //! Verdict on a decoded command; an accepted goal or acknowledgement raises the sender's counter.
-  [[nodiscard]] CommandVerdict check(const operator_command_t& cmd) noexcept;
+  //! Takes counters saved before a restart (load_command_state()); a counter below the floor is
+  //! raised to it. Start-up only: throws std::invalid_argument for more than kMaxSenders senders or
+  //! a sender listed twice.
+  void restore(std::span<const SenderCounter> counters);
+
+  //! Verdict on a decoded command at the controller's CLOCK_REALTIME now_us; an accepted goal or
+  //! acknowledgement raises the sender's counter. RT-safe: no alloc, no lock, no throw.
+  [[nodiscard]] CommandVerdict check(const operator_command_t& cmd, std::int64_t now_us) noexcept;
   //! Verdict on raw bytes from the bus: MALFORMED when they do not decode; then as check().
-  [[nodiscard]] CommandVerdict check_bytes(std::span<const std::uint8_t> bytes, operator_command_t& cmd) noexcept;
+  [[nodiscard]] CommandVerdict check_bytes(std::span<const std::uint8_t> bytes, operator_command_t& cmd,
+                                           std::int64_t now_us) noexcept;
 
-  //! Last accepted sequence of sender, or the floor when none was accepted yet. [-]
+  //! Last accepted sequence of sender, or the floor when none was accepted yet. [µs]
   [[nodiscard]] std::int64_t last_sequence(std::int32_t sender_id) const noexcept;
+  //! The replay table, for saving. [-]
+  [[nodiscard]] std::span<const SenderCounter> senders() const noexcept { return {senders_.data(), num_senders_}; }
+  //! Counts changes of the replay table: a saver compares it with the value it last saved. [-]
+  [[nodiscard]] std::uint64_t revision() const noexcept { return revision_; }
+  [[nodiscard]] std::int64_t sequence_floor() const noexcept { return sequence_floor_; }
+  [[nodiscard]] std::int64_t max_skew_us() const noexcept { return max_skew_us_; }
 
  private:
-  struct SenderCounter {
-    std::int32_t sender_id = 0;
-    std::int64_t last_sequence = 0;
-  };
   CommandKey key_;
   std::int64_t sequence_floor_;
+  std::int64_t max_skew_us_;
   std::array<SenderCounter, kMaxSenders> senders_{};
   std::size_t num_senders_ = 0;
+  std::uint64_t revision_ = 0;
 };
+
+//! Thrown by load_command_state() with a one-line message naming the file, the line and field,
+//! the value and what was expected.
+class CommandStateError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+//! Reads the replay counters saved by save_command_state(). A missing file is a first start and
+//! gives no counters; an unreadable or malformed file throws CommandStateError (the controller
+//! refuses to start: docs/operator-feed.md). Start-up only (allocates, may block).
+[[nodiscard]] std::vector<SenderCounter> load_command_state(const std::string& path);
+
+//! Writes the counters to path atomically: a temporary file beside it (path + ".tmp"), fsync,
+//! rename over path, fsync of the directory. Returns 0, or the errno of the step that failed
+//! (path is then unchanged). No allocation; may block: never on the control loop thread.
+int save_command_state(const std::string& path, std::span<const SenderCounter> counters) noexcept;
 
 }  // namespace mgc::firmware

@@ -59,6 +59,18 @@ struct SnapshotTiming {
   std::uint64_t snapshots_dropped = 0;  //!< filled by whoever reads the queue's counter [-]
 };
 
+//! The hal's decode counters since start (hal::CodecCounters), for health_counters_t.
+struct SnapshotBus {
+  std::uint64_t decoded = 0;        //!< [frames]
+  std::uint64_t unknown_id = 0;     //!< [frames]
+  std::uint64_t wrong_length = 0;   //!< [frames]
+  std::uint64_t wrong_id = 0;       //!< [frames]
+  std::uint64_t out_of_range = 0;   //!< [frames]
+  std::uint64_t reserved_bits = 0;  //!< [frames]
+  std::uint64_t other = 0;          //!< [frames]
+  std::uint64_t implausible = 0;    //!< [frames]
+};
+
 struct GuidanceSnapshot {
   std::int64_t utime_us = 0;          //!< cycle start, monotonic [µs]
   std::int64_t utime_sample_us = 0;   //!< oldest joint sample used [µs]
@@ -101,6 +113,7 @@ struct GuidanceSnapshot {
   std::array<SnapshotAlert, kSnapshotMaxAlerts> alerts{};
 
   SnapshotTiming timing{};
+  SnapshotBus bus{};                  //!< filled by whoever owns the hal
 };
 
 static_assert(std::is_trivially_copyable_v<GuidanceSnapshot>);

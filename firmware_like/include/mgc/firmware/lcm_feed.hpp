@@ -29,6 +29,7 @@ inline constexpr const char* kPlan = "MGC_PLAN";
 inline constexpr const char* kLoopTiming = "MGC_LOOP_TIMING";
 inline constexpr const char* kCommand = "MGC_COMMAND";
 inline constexpr const char* kCommandStatus = "MGC_COMMAND_STATUS";
+inline constexpr const char* kHealth = "MGC_HEALTH";
 }  // namespace channel
 
 //! UDP multicast on this host only: ttl=0 keeps every packet off the site network.
@@ -51,13 +52,50 @@ struct AcceptedCommand {
 using SnapshotQueue = SpscQueue<GuidanceSnapshot, kSnapshotQueueCapacity>;
 using CommandQueue = SpscQueue<AcceptedCommand, kCommandQueueCapacity>;
 
+//! CLOCK_REALTIME [µs]: the clock command sequences are compared with.
+[[nodiscard]] std::int64_t realtime_clock_us() noexcept;
+//! CLOCK_MONOTONIC [µs]: message times and the alert rate limit.
+[[nodiscard]] std::int64_t monotonic_clock_us() noexcept;
+
 struct FeedConfig {
   std::string lcm_url = kDefaultLcmUrl;
   std::int64_t guidance_period_us = 100'000;    //!< operator_guidance_t and the words: 10 Hz [µs]
-  std::int64_t timing_period_us = 1'000'000;    //!< loop_timing_t: 1 Hz [µs]
+  std::int64_t timing_period_us = 1'000'000;    //!< loop_timing_t and health_counters_t: 1 Hz [µs]
   std::int64_t alert_repeat_period_us = 1'000'000;  //!< every active alert again: 1 Hz [µs]
+  std::int64_t refusal_alert_period_us = 1'000'000;  //!< at most one alert for refused commands per period [µs]
   int receive_timeout_ms = 5;                   //!< longest wait for a command per iteration [ms]
-  std::int64_t sequence_floor = 0;              //!< CommandAuthenticator's replay floor [-]
+  std::int64_t sequence_floor = 0;              //!< CommandAuthenticator's replay floor [µs]
+  std::int64_t max_skew_us = kDefaultCommandSkew_us;  //!< tolerated sequence vs. clock difference [µs]
+  //! Replay counters saved here before an accepted command reaches the loop, loaded at
+  //! construction (docs/operator-feed.md); empty: in memory only.
+  std::string command_state_path;
+  std::int64_t (*realtime_us)() noexcept = &realtime_clock_us;    //!< tests step it [µs]
+  std::int64_t (*monotonic_us)() noexcept = &monotonic_clock_us;  //!< tests step it [µs]
+};
+
+//! Refused commands counted per reason, and the rate limit of their alerts: one alert for the
+//! first refusal after a quiet alert period, none for the others in that period. Counters are
+//! read from any thread; record() is called by one. RT-safe: no alloc, no lock, no throw.
+class RefusalCounter {
+ public:
+  static constexpr std::size_t kReasons = 16;  //!< health_counters_t::MAX_REASONS [-]
+
+  explicit RefusalCounter(std::int64_t alert_period_us) noexcept : alert_period_us_(alert_period_us) {}
+
+  //! Counts one refusal for reason at now_us (monotonic); true when an alert is due for it.
+  bool record(std::int8_t reason, std::int64_t now_us) noexcept;
+
+  [[nodiscard]] std::uint64_t count(std::int8_t reason) const noexcept;  //!< refusals for reason [-]
+  [[nodiscard]] std::uint64_t total() const noexcept { return total_.load(std::memory_order_relaxed); }  //!< [-]
+  [[nodiscard]] std::uint64_t alerts() const noexcept { return alerts_.load(std::memory_order_relaxed); }  //!< [-]
+
+ private:
+  std::int64_t alert_period_us_;
+  std::array<std::atomic<std::uint64_t>, kReasons> by_reason_{};
+  std::atomic<std::uint64_t> total_{0};
+  std::atomic<std::uint64_t> alerts_{0};
+  std::int64_t last_alert_us_ = 0;
+  bool alerted_ = false;
 };
 
 //! Counters for tests and the health page; read from any thread.
@@ -67,6 +105,8 @@ struct FeedCounters {
   std::atomic<std::uint64_t> commands_accepted{0};
   std::atomic<std::uint64_t> commands_rejected{0};
   std::atomic<std::uint64_t> stops_received{0};  //!< also counted when the command queue was full
+  std::atomic<std::uint64_t> state_saves{0};     //!< replay counters written to the state file
+  std::atomic<int> last_state_save_errno{0};     //!< errno of the last failed save, 0 after a good one
 };
 
 //! Owns the LCM instance. Construct, then start() a thread, or call run_once() from a test.
@@ -74,7 +114,8 @@ struct FeedCounters {
 //! pops commands; this class pops snapshots and pushes commands, all on one thread.
 class FeedPublisher {
  public:
-  //! Throws std::runtime_error naming the URL when LCM cannot open it. Start-up only.
+  //! Throws std::runtime_error naming the URL when LCM cannot open it, and CommandStateError when
+  //! config.command_state_path cannot be read, is malformed or cannot be written. Start-up only.
   FeedPublisher(const FeedConfig& config, const CommandKey& key, SnapshotQueue& snapshots,
                 CommandQueue& commands);
   ~FeedPublisher();
@@ -90,6 +131,8 @@ class FeedPublisher {
   void run_once(int timeout_ms);
 
   [[nodiscard]] const FeedCounters& counters() const noexcept { return counters_; }
+  [[nodiscard]] const RefusalCounter& refusals() const noexcept { return refusals_; }
+  [[nodiscard]] const CommandAuthenticator& authenticator() const noexcept { return auth_; }
   //! Stops received since construction: the loop may poll this as well as the queue, so a stop
   //! is obeyed even when the command queue was full. [-]
   [[nodiscard]] std::uint64_t stops_received() const noexcept {
@@ -102,6 +145,8 @@ class FeedPublisher {
   void publish_alerts(const GuidanceSnapshot& s, std::int64_t now_us);
   void on_command(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
   void reject(const operator_command_t& cmd, std::int8_t reason, std::int64_t now_us);
+  //! Saves the replay counters if they changed since the last save; false when that failed.
+  bool save_state();
   template <class Msg>
   void publish(const char* channel, const Msg& msg);
 
@@ -111,6 +156,8 @@ class FeedPublisher {
   SnapshotQueue& snapshots_;
   CommandQueue& commands_;
   FeedCounters counters_;
+  RefusalCounter refusals_;
+  std::uint64_t saved_revision_ = 0;
   std::vector<std::uint8_t> encode_buf_;
 
   GuidanceSnapshot snapshot_{};  //!< pop target; a member because it is several KB
