@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 namespace mgc::hal {
 
@@ -39,6 +40,17 @@ Hal::Hal(CanBus& bus, const BusPlan& plan, std::span<const double> max_velocity)
   snap_.cutoff.node_id = plan.cutoff_node_id;
   snap_.cutoff_status.node_id = plan.cutoff_node_id;
   tag_slot_.fill(-1);
+  plausible_min_.fill(-std::numeric_limits<double>::infinity());
+  plausible_max_.fill(std::numeric_limits<double>::infinity());
+}
+
+void Hal::set_joint_plausible_range(std::size_t joint, double min, double max) {
+  if (joint >= plan_.num_joints) throw std::invalid_argument("Hal: no joint " + std::to_string(joint) + " in the bus plan");
+  if (std::isnan(min) || std::isnan(max) || min > max) {
+    throw std::invalid_argument("Hal: joint " + std::to_string(joint) + "'s plausible range must be min <= max, not NaN");
+  }
+  plausible_min_[joint] = min;
+  plausible_max_[joint] = max;
 }
 
 DeviceStatus* Hal::device(std::uint8_t node_id) noexcept {
@@ -117,6 +129,7 @@ void Hal::handle(const TimedFrame& timed) noexcept {
       const auto j = static_cast<std::size_t>(c.index);
       JointReading& joint = snap_.joints[j];
       joint.position = pdo::counts_to_si(pos.value.position_counts, plan_.encoders[j].kind);
+      if (joint.position < plausible_min_[j] || joint.position > plausible_max_[j]) ++snap_.codec.implausible;
       joint.status = pos.value.status;
       joint.t_us = timed.t_us;
       joint.updated = true;

@@ -6,12 +6,14 @@
 #include <array>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "allocation_counter.hpp"
 #include "mgc/hal/bus_plan.hpp"
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/canopen.hpp"
 #include "mgc/hal/device_pdos.hpp"
+#include "mgc/hal/hal.hpp"
 #include "transport_support.hpp"
 
 using namespace mgc::hal;
@@ -62,4 +64,34 @@ TEST_CASE("send, receive and the codec do not allocate after warm-up", "[unit][t
   CHECK(allocations == 0);
   CHECK(codec.malformed() == 0);
   CHECK(codec.decoded > 8'000);
+}
+
+TEST_CASE("Hal::read counts malformed, unknown and implausible frames without allocating", "[unit][hal]") {
+  ManualClock clock(1'000'000);
+  auto controller = open_can_bus("loop:alloc-hygiene", &clock).bus;
+  auto device = open_can_bus("loop:alloc-hygiene", &clock).bus;
+  REQUIRE(controller);
+  REQUIRE(device);
+  const BusPlan plan = mobile_crane_bus_plan();
+  Hal hal(*controller, plan, std::vector<double>{0.1, 0.02, 0.1, 0.5});
+  hal.set_joint_plausible_range(1, 0.0, 1.0);
+  CanFrame short_frame = pdo::encode_encoder_position({plan.encoders[0].node_id, 10, 0}).value;
+  short_frame.dlc = 3;
+  const CanFrame unknown = CanFrame::standard(0x5B0, 8);
+  const CanFrame implausible = pdo::encode_encoder_position({plan.encoders[1].node_id, 170'000, 0}).value;
+  const auto cycle = [&] {
+    (void)device->send(short_frame);
+    (void)device->send(unknown);
+    (void)device->send(implausible);
+    clock.advance_us(10'000);
+    (void)hal.read(clock.now_us());
+  };
+  for (int i = 0; i < 20; ++i) cycle();
+  const long before = mgc::test::allocation_count();
+  for (int i = 0; i < 1'000; ++i) cycle();
+  const long allocations = mgc::test::allocation_count() - before;
+  CHECK(allocations == 0);
+  CHECK(hal.snapshot().codec.wrong_length == 1'020);
+  CHECK(hal.snapshot().codec.unknown_id == 1'020);
+  CHECK(hal.snapshot().codec.implausible == 1'020);
 }

@@ -108,6 +108,9 @@ struct CodecCounters {
   std::uint64_t out_of_range = 0;   //!< [frames]
   std::uint64_t reserved_bits = 0;  //!< [frames]
   std::uint64_t other = 0;          //!< any other status [frames]
+  //! Decoded (and counted in decoded), but the value lies outside what the receiver was told is
+  //! plausible, e.g. an encoder position outside its joint's range (Hal::set_joint_plausible_range) [frames].
+  std::uint64_t implausible = 0;
 
   //! Counts one decode outcome. RT-safe.
   void record(Status status) noexcept;

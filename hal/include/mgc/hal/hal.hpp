@@ -157,6 +157,12 @@ class Hal {
   void set_valve_deadband(double fraction);
   [[nodiscard]] double valve_deadband() const noexcept { return valve_deadband_; }
 
+  //! The positions joint j's encoder can plausibly report [rad | m]: a decoded sample outside
+  //! [min, max] is counted in the snapshot's codec.implausible (and still decoded: judging the
+  //! joint is the diagnostics' job). Default: every representable value. Start-up only; throws
+  //! std::invalid_argument for a joint beyond the plan, NaN, or min > max.
+  void set_joint_plausible_range(std::size_t joint, double min, double max);
+
   //! Sends the valve command frames for every joint (velocities in SI, clamped to the max
   //! velocity), the cut-off command (enable or cut, see set_pilot_enabled), and the controller
   //! heartbeat when it is due.
@@ -194,6 +200,8 @@ class Hal {
   BusPlan plan_;
   std::array<double, kMaxBusJoints> max_velocity_{};
   double valve_deadband_ = 0.0;
+  std::array<double, kMaxBusJoints> plausible_min_{};  //!< [rad | m]
+  std::array<double, kMaxBusJoints> plausible_max_{};  //!< [rad | m]
   SensorSnapshot snap_{};
   std::array<TimedFrame, kHalReceiveBatch> rx_{};
   std::array<std::int8_t, 256> tag_slot_{};  //!< tag id → index in snap_.tags, -1 = unseen
