@@ -19,10 +19,6 @@
 namespace mgc::firmware {
 namespace {
 
-// Alerts raised here for rejected commands take ids from their own range, so they never collide
-// with the loop's alert ids (which count up from 1).
-constexpr std::int32_t kCommandAlertIdBase = 0x40000000;
-
 static_assert(RefusalCounter::kReasons == health_counters_t::MAX_REASONS);
 static_assert(command_status_t::NUM_REASONS <= health_counters_t::MAX_REASONS);
 

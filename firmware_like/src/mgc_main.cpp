@@ -57,6 +57,7 @@ int main(int argc, char** argv) {
   double rate_hz = 100.0;
   std::string lcm_url = firmware::kDefaultLcmUrl;
   std::string key_file;
+  std::string command_state_file;
   bool goal_on_start = false;
   bool exit_when_done = false;
   double duration_s = 0.0;
@@ -76,6 +77,9 @@ int main(int argc, char** argv) {
   app.add_option("--key", key_file,
                  "shared command key (32 raw bytes); without it a random key is used and no goal or "
                  "acknowledgement from LCM can be accepted");
+  app.add_option("--command-state", command_state_file,
+                 "replay counters of accepted operator commands, kept across restarts (default: the key file "
+                 "+ '.state'; none without --key, docs/operator-feed.md)");
   app.add_flag("--goal-on-start", goal_on_start, "request the scenario's goal as soon as the machine is ready (HOLD)");
   app.add_flag("--exit-when-done", exit_when_done, "exit once the goal is reached (0) or the lift ends in FAULT/ESTOP or is dropped (1)");
   app.add_option("--duration", duration_s, "stop after this many seconds (default: until SIGINT/SIGTERM)")->check(mgc::tools::nonnegative_number());
@@ -149,8 +153,19 @@ int main(int argc, char** argv) {
 
     firmware::SnapshotQueue snapshots;
     firmware::CommandQueue commands;
+    // Plausible encoder values: the joint's range with a tenth of its span either side, so that
+    // a joint a little past a soft limit is the diagnostics' business, not a bad frame's.
+    for (std::size_t j = 0; j < scenario.machine.joints.size(); ++j) {
+      const planning::JointSpec& spec = scenario.machine.joints[j];
+      if (!spec.continuous) hal.set_joint_plausible_range(j, spec.position_min - 0.1 * spec.range(), spec.position_max + 0.1 * spec.range());
+    }
+
     firmware::FeedConfig feed_config;
     feed_config.lcm_url = lcm_url;
+    // Commands signed before this start, less the tolerated skew, are stale (docs/operator-feed.md).
+    feed_config.sequence_floor = firmware::realtime_clock_us() - feed_config.max_skew_us;
+    if (command_state_file.empty() && !key_file.empty()) command_state_file = key_file + ".state";
+    feed_config.command_state_path = command_state_file;
     firmware::FeedPublisher feed(feed_config, *key, snapshots, commands);
 
     const auto period_us = static_cast<std::int64_t>(1e6 / rate_hz);
@@ -260,6 +275,8 @@ int main(int argc, char** argv) {
       g.timing.lateness_p99_us = es.lateness.percentile_us(0.99);
       g.timing.lateness_max_us = es.lateness.max_us();
       g.timing.snapshots_dropped = snapshots.dropped();
+      g.bus = {s.codec.decoded,       s.codec.unknown_id,    s.codec.wrong_length, s.codec.wrong_id,
+               s.codec.out_of_range,  s.codec.reserved_bits, s.codec.other,        s.codec.implausible};
       (void)snapshots.try_push(g);
 
       if (!trace_csv.empty() && static_cast<std::int64_t>(timing.index) % trace_every == 0) {
@@ -360,6 +377,22 @@ int main(int argc, char** argv) {
                 es.cycles, period_us, es.compute.percentile_us(0.99), es.compute.max_us(), es.lateness.percentile_us(0.99),
                 es.lateness.max_us(), es.deadline_misses, es.watchdog_trips, snapshots.dropped(),
                 trace_dropped > 0 ? ", trace full" : "");
+    const firmware::RefusalCounter& refusals = feed.refusals();
+    std::printf("mgc: operator commands on LCM: %" PRIu64 " accepted, %" PRIu64 " refused", feed.counters().commands_accepted.load(),
+                refusals.total());
+    const char* sep = " (";
+    for (std::int8_t r = 0; r < static_cast<std::int8_t>(firmware::RefusalCounter::kReasons); ++r) {
+      if (refusals.count(r) == 0) continue;
+      std::printf("%s%s %" PRIu64, sep, firmware::command_reason_name(r), refusals.count(r));
+      sep = ", ";
+    }
+    std::printf("%s, %" PRIu64 " refusal alerts\n", sep[0] == ',' ? ")" : "", refusals.alerts());
+    const hal::CodecCounters& codec = hal.snapshot().codec;
+    std::printf("mgc: bus: %" PRIu64 " frames decoded, %" PRIu64 " unknown COB-ids, %" PRIu64 " malformed (wrong length %" PRIu64
+                ", wrong id %" PRIu64 ", out of range %" PRIu64 ", reserved bits %" PRIu64 ", other %" PRIu64 "), %" PRIu64
+                " implausible encoder values\n",
+                codec.decoded, codec.unknown_id, codec.malformed(), codec.wrong_length, codec.wrong_id, codec.out_of_range,
+                codec.reserved_bits, codec.other, codec.implausible);
     if (!completed && exit_when_done) exit_code = 1;
     return exit_code;
   } catch (const std::exception& e) {

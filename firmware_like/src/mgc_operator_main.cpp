@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -92,7 +93,11 @@ class Watcher {
     print_time();
     std::printf("alert %d %s: %s %s", a->alert_id, a->active ? "raised" : "cleared", severity_name(a->severity),
                 source_name(a->source));
-    if (a->active && a->source == mgc::alert_t::SOURCE_COLLISION && a->value_unit == mgc::alert_t::UNIT_SECOND) {
+    if (a->active && a->source == mgc::alert_t::SOURCE_OPERATOR && a->alert_id >= mgc::firmware::kCommandAlertIdBase) {
+      // One alert per second at most for refused commands; mgc counts them all (MGC_HEALTH).
+      std::printf(", a command from sender %d refused: %s", a->index,
+                  mgc::firmware::command_reason_name(static_cast<std::int8_t>(a->value)));
+    } else if (a->active && a->source == mgc::alert_t::SOURCE_COLLISION && a->value_unit == mgc::alert_t::UNIT_SECOND) {
       std::printf(", obstacle %d predicted within the stop margin in %.1f s", a->index, a->value);
     } else if (a->active && std::isfinite(a->value)) {
       std::printf(", value %.2f%s (limit %.2f%s)", a->value, unit_suffix(a->value_unit), a->limit, unit_suffix(a->value_unit));
@@ -101,8 +106,8 @@ class Watcher {
   }
   void on_status(const lcm::ReceiveBuffer*, const std::string&, const mgc::command_status_t* s) {
     print_time();
-    std::printf("command %lld from %d %s (reason %d)\n", static_cast<long long>(s->sequence), s->sender_id,
-                s->accepted ? "accepted" : "REFUSED", s->reason);
+    std::printf("command %lld from %d %s (%s)\n", static_cast<long long>(s->sequence), s->sender_id,
+                s->accepted ? "accepted" : "REFUSED", mgc::firmware::command_reason_name(s->reason));
   }
 
   [[nodiscard]] int lifts_ended() const { return lifts_ended_; }
@@ -176,14 +181,17 @@ int main(int argc, char** argv) {
 
   try {
     std::optional<mgc::firmware::CommandKey> key;
+    std::int64_t last_sequence = 0;
     if (!key_file.empty()) key.emplace(mgc::firmware::load_command_key(key_file));
     const auto send = [&](std::int8_t kind, const mgc::planning::Scenario* s) {
       mgc::operator_command_t cmd{};
       cmd.utime = watcher.now();
       cmd.kind = kind;
       cmd.sender_id = sender_id;
-      // Never repeats over the key's life (docs/operator-feed.md): the wall clock in µs.
-      cmd.sequence = wall_us();
+      // The wall clock in µs, which mgc checks against its own within the tolerated skew; bumped
+      // when the clock has not moved, so that it never repeats (docs/operator-feed.md).
+      cmd.sequence = std::max(wall_us(), last_sequence + 1);
+      last_sequence = cmd.sequence;
       if (s) {
         cmd.num_joints = static_cast<std::int8_t>(s->goal.size());
         for (int j = 0; j < s->goal.size(); ++j) cmd.goal_position[j] = s->goal[j];

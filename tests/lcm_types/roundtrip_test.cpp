@@ -5,6 +5,7 @@
 
 #include <mgc/alert_t.hpp>
 #include <mgc/command_status_t.hpp>
+#include <mgc/health_counters_t.hpp>
 #include <mgc/loop_timing_t.hpp>
 #include <mgc/machine_state_t.hpp>
 #include <mgc/operator_command_t.hpp>
@@ -483,6 +484,42 @@ TEST_CASE("loop_timing_t round-trips every field", "[unit]") {
   require_truncations_rejected<mgc::loop_timing_t>(buf);
 }
 
+TEST_CASE("health_counters_t round-trips every field", "[unit]") {
+  static_assert(std::extent_v<decltype(mgc::health_counters_t::refused_by_reason)> ==
+                mgc::health_counters_t::MAX_REASONS);
+  static_assert(mgc::command_status_t::NUM_REASONS <= mgc::health_counters_t::MAX_REASONS);
+  mgc::health_counters_t sent{};
+  sent.utime = 9;
+  sent.bus_frames_decoded = 123'456'789'012LL;
+  sent.bus_unknown_frames = 2;
+  sent.bus_wrong_length = 3;
+  sent.bus_wrong_id = 4;
+  sent.bus_out_of_range = 5;
+  sent.bus_reserved_bits = 6;
+  sent.bus_other = 7;
+  sent.bus_implausible_values = 8;
+  sent.commands_accepted = 10;
+  sent.commands_refused = 11;
+  for (int r = 0; r < mgc::health_counters_t::MAX_REASONS; ++r) sent.refused_by_reason[r] = 100 + r;
+  sent.refusal_alerts = 12;
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::health_counters_t>(buf);
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.bus_frames_decoded == sent.bus_frames_decoded);
+  REQUIRE(got.bus_unknown_frames == sent.bus_unknown_frames);
+  REQUIRE(got.bus_wrong_length == sent.bus_wrong_length);
+  REQUIRE(got.bus_wrong_id == sent.bus_wrong_id);
+  REQUIRE(got.bus_out_of_range == sent.bus_out_of_range);
+  REQUIRE(got.bus_reserved_bits == sent.bus_reserved_bits);
+  REQUIRE(got.bus_other == sent.bus_other);
+  REQUIRE(got.bus_implausible_values == sent.bus_implausible_values);
+  REQUIRE(got.commands_accepted == sent.commands_accepted);
+  REQUIRE(got.commands_refused == sent.commands_refused);
+  REQUIRE(as_array(got.refused_by_reason) == as_array(sent.refused_by_reason));
+  REQUIRE(got.refusal_alerts == sent.refusal_alerts);
+  require_truncations_rejected<mgc::health_counters_t>(buf);
+}
+
 TEST_CASE("operator_instruction_t round-trips every field", "[unit]") {
   mgc::operator_instruction_t sent{};
   sent.utime = 5;
@@ -513,11 +550,12 @@ TEST_CASE("operator_instruction_t round-trips every field", "[unit]") {
 }
 
 TEST_CASE("the feed's fingerprints differ from each other and from the loop's types", "[unit]") {
-  const std::array<std::int64_t, 8> hashes = {
+  const std::array<std::int64_t, 9> hashes = {
       mgc::machine_state_t::getHash(),      mgc::operator_guidance_t::getHash(),
       mgc::alert_t::getHash(),              mgc::plan_t::getHash(),
       mgc::operator_command_t::getHash(),   mgc::command_status_t::getHash(),
       mgc::loop_timing_t::getHash(),        mgc::operator_instruction_t::getHash(),
+      mgc::health_counters_t::getHash(),
   };
   for (std::size_t i = 0; i < hashes.size(); ++i) {
     for (std::size_t j = i + 1; j < hashes.size(); ++j) {

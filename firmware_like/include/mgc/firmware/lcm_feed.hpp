@@ -35,6 +35,10 @@ inline constexpr const char* kHealth = "MGC_HEALTH";
 //! UDP multicast on this host only: ttl=0 keeps every packet off the site network.
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 
+//! Alerts for refused commands take ids from here up, so they never collide with the loop's
+//! alert ids (which count up from 1). [-]
+inline constexpr std::int32_t kCommandAlertIdBase = 0x40000000;
+
 inline constexpr std::size_t kSnapshotQueueCapacity = 64;  //!< 0.64 s of snapshots at 100 Hz [-]
 inline constexpr std::size_t kCommandQueueCapacity = 16;   //!< commands waiting for the loop [-]
 
