@@ -13,10 +13,10 @@ constexpr double kDegToRad = std::numbers::pi / 180.0;
 // Returns the boom length's value, which later checks name.
 Value read_mount(const Value& value, CraneMount& m) {
   Fields f = value.fields();
-  m.base_position_m = f.required("base_position_m").vec3();
+  m.base_position_m = f.required("base_position_m").position_m();
   m.base_yaw_rad = f.required("base_yaw_deg").number_in(-360.0, 360.0) * kDegToRad;
   Value boom = f.required("boom_length_m");
-  m.boom_length_m = boom.positive();
+  m.boom_length_m = boom.length_m();
   f.finish();
   return boom;
 }
@@ -37,15 +37,15 @@ DualCraneSpec read_dual_crane(const Value& value, MachineDefinition& machine) {
   }
   {
     Fields g = f.required("girder").fields();
-    spec.girder.length_m = g.required("length_m").positive();
+    spec.girder.length_m = g.required("length_m").length_m();
     spec.girder.mass_kg = g.required("mass_kg").positive();
-    spec.girder.radius_m = g.required("radius_m").positive();
+    spec.girder.radius_m = g.required("radius_m").length_m();
     g.finish();
   }
   // Open interval: a tilt limit of 90 deg would let the chain fold.
   spec.max_cable_tilt_rad = f.required("max_cable_tilt_deg").number_in(1e-3, 89.0) * kDegToRad;
   spec.max_girder_tilt_rad = f.required("max_girder_tilt_deg").number_in(1e-3, 89.0) * kDegToRad;
-  spec.anchor_step_m = f.required("anchor_step_m").positive();
+  spec.anchor_step_m = f.required("anchor_step_m").length_m();
   if (auto r = f.optional("capacity_reduction_pct")) spec.capacity_reduction_pct = r->number_in(0.0, 100.0);
   f.finish();
   try {

@@ -29,10 +29,12 @@ void read_geometry_table(const Value& value, G& g, const GeometryField<G> (&tabl
     const Value v = f.required(field.key);
     if (std::holds_alternative<double G::*>(field.member)) {
       double G::*m = std::get<double G::*>(field.member);
-      g.*m = field.check == Check::Positive ? v.positive() : field.check == Check::NonNegative ? v.non_negative() : v.number();
+      g.*m = field.check == Check::Positive      ? v.length_m()
+               : field.check == Check::NonNegative ? v.non_negative_length_m()
+                                                   : v.coordinate_m();
     } else {
       Eigen::Vector3d G::*m = std::get<Eigen::Vector3d G::*>(field.member);
-      g.*m = field.check == Check::Positive ? v.positive_vec3() : v.vec3();
+      g.*m = field.check == Check::Positive ? v.size_m() : v.position_m();
     }
   }
   f.finish();

@@ -3,9 +3,11 @@
 
 #include <cmath>
 #include <map>
+#include <new>
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <system_error>
 
 #include "dual_crane_fields.hpp"
 #include "geometry_fields.hpp"
@@ -63,6 +65,7 @@ JointSpec read_joint(const Value& value, const std::pair<const char*, JointType>
   }
   const Value range = f.required("range_" + u);
   const auto [lo, hi] = range.increasing_pair();
+  for (const Value& end : range.list()) (void)(revolute ? end.angle_deg() : end.coordinate_m());
   if (j.continuous && std::abs((hi - lo) - 360.0) > 1e-9) range.fail("a full turn [min, min + 360] for a continuous joint");
   if (revolute && !j.continuous && hi - lo > 360.0) range.fail("a range of at most 360 deg");
   j.position_min = lo * scale;
@@ -140,9 +143,22 @@ LuffRangeTable read_luff_table(const Value& value) {
   return t;
 }
 
-}  // namespace
+// Every failure leaves the loader as InputError naming the file, whatever threw it, so that
+// programs that catch InputError never abort on an exception they did not expect.
+template <class Read>
+auto guarded(const std::string& file, Read&& read) {
+  try {
+    return read();
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw InputError(file, 0, "", "out of memory while reading the file");
+  } catch (const std::exception& e) {
+    throw InputError(file, 0, "", std::string("cannot read the file: ") + e.what());
+  }
+}
 
-MachineDefinition load_machine(const std::filesystem::path& path) {
+MachineDefinition read_machine(const std::filesystem::path& path) {
   const std::string file = path.string();
   const YAML::Node root = load_yaml(file);
   const Value root_value(root, "", &file, 1);
@@ -152,7 +168,7 @@ MachineDefinition load_machine(const std::filesystem::path& path) {
   const Value kind = f.required("kind");
   const std::string k = kind.choice({"mobile_crane", "tower_crane", "excavator"});
   m.kind = k == "mobile_crane" ? MachineKind::MobileCrane : k == "tower_crane" ? MachineKind::TowerCrane : MachineKind::Excavator;
-  m.name = f.required("name").text();
+  m.name = f.required("name").name();
   m.source = f.required("source").text();
 
   const Value joints = f.required("joints");
@@ -179,8 +195,6 @@ MachineDefinition load_machine(const std::filesystem::path& path) {
   return m;
 }
 
-namespace {
-
 Eigen::Matrix3d rotation_from_rpy_deg(const Eigen::Vector3d& rpy_deg) {
   return (Eigen::AngleAxisd(rpy_deg.z() * kDegToRad, Eigen::Vector3d::UnitZ()) *
           Eigen::AngleAxisd(rpy_deg.y() * kDegToRad, Eigen::Vector3d::UnitY()) *
@@ -188,10 +202,17 @@ Eigen::Matrix3d rotation_from_rpy_deg(const Eigen::Vector3d& rpy_deg) {
       .toRotationMatrix();
 }
 
+Eigen::Vector3d read_rpy_deg(const Value& value) {
+  Eigen::Vector3d rpy_deg = value.vec3();
+  const auto items = value.list();
+  for (int i = 0; i < 3; ++i) rpy_deg[i] = items[static_cast<std::size_t>(i)].angle_deg();
+  return rpy_deg;
+}
+
 void read_pose(Fields& f, Eigen::Isometry3d& pose) {
   pose = Eigen::Isometry3d::Identity();
-  pose.translation() = f.required("position_m").vec3();
-  if (auto rpy = f.optional("rpy_deg")) pose.linear() = rotation_from_rpy_deg(rpy->vec3());
+  pose.translation() = f.required("position_m").position_m();
+  if (auto rpy = f.optional("rpy_deg")) pose.linear() = rotation_from_rpy_deg(read_rpy_deg(*rpy));
 }
 
 // The shape fields of one obstacle or obstacle part; `f` has its type already read.
@@ -199,15 +220,15 @@ ShapePart read_shape(Fields& f, const Value& type_value, const std::string& type
   ShapePart s;
   if (type == "box") {
     s.kind = ShapeKind::Box;
-    s.size_m = f.required("size_m").positive_vec3();
+    s.size_m = f.required("size_m").size_m();
   } else if (type == "cylinder" || type == "capsule") {
     s.kind = type == "cylinder" ? ShapeKind::Cylinder : ShapeKind::Capsule;
-    const double r = f.required("radius_m").positive();
-    const double l = f.required("length_m").positive();
+    const double r = f.required("radius_m").length_m();
+    const double l = f.required("length_m").length_m();
     s.size_m = Eigen::Vector3d(2.0 * r, 2.0 * r, l);
   } else if (type == "mesh") {
     s.kind = ShapeKind::Mesh;
-    for (const Value& v : f.required("vertices_m").non_empty_list()) s.vertices_m.push_back(v.vec3());
+    for (const Value& v : f.required("vertices_m").non_empty_list()) s.vertices_m.push_back(v.position_m());
     const int n = static_cast<int>(s.vertices_m.size());
     for (const Value& t : f.required("triangles").non_empty_list()) {
       const auto idx = t.list();
@@ -227,8 +248,8 @@ ShapePart read_shape(Fields& f, const Value& type_value, const std::string& type
 // A steel frame of columns and beams on a rectangular grid, expanded into boxes named
 // "<name>/column[i,j,k]", "<name>/beam-x[i,j,k]" and "<name>/beam-y[i,j,k]".
 void read_steel_frame(Fields& f, const std::string& name, std::vector<StaticObstacle>& out) {
-  const Eigen::Vector3d origin = f.required("origin_m").vec3();
-  const double yaw = f.optional("yaw_deg") ? f.optional("yaw_deg")->number() * kDegToRad : 0.0;
+  const Eigen::Vector3d origin = f.required("origin_m").position_m();
+  const double yaw = f.optional("yaw_deg") ? f.optional("yaw_deg")->angle_deg() * kDegToRad : 0.0;
   const Value bays_value = f.required("bays");
   const auto bays = bays_value.list();
   if (bays.size() != 2) bays_value.fail("[bays along x, bays along y]");
@@ -237,20 +258,36 @@ void read_steel_frame(Fields& f, const std::string& name, std::vector<StaticObst
   const Value bay_size_value = f.required("bay_size_m");
   const auto bay = bay_size_value.list();
   if (bay.size() != 2) bay_size_value.fail("[bay length along x, along y]");
-  const double bx = bay[0].positive();
-  const double by = bay[1].positive();
-  const int storeys = f.required("storeys").integer(1, 100);
-  const double h = f.required("storey_height_m").positive();
+  const double bx = bay[0].length_m();
+  const double by = bay[1].length_m();
+  const Value storey_value = f.required("storeys");
+  const int storeys = storey_value.integer(1, 100);
+  const double h = f.required("storey_height_m").length_m();
   const Value column_value = f.required("column_section_m");
   const auto column = column_value.list();
   if (column.size() != 2) column_value.fail("[width, depth] of the column section");
-  const double cw = column[0].positive();
-  const double cd = column[1].positive();
+  const double cw = column[0].length_m();
+  const double cd = column[1].length_m();
   const Value beam_value = f.required("beam_section_m");
   const auto beam = beam_value.list();
   if (beam.size() != 2) beam_value.fail("[width, height] of the beam section");
-  const double bw = beam[0].positive();
-  const double bh = beam[1].positive();
+  const double bw = beam[0].length_m();
+  const double bh = beam[1].length_m();
+  // The frame's own lengths are lengths on the site too.
+  if (!(nx * bx <= kSiteExtent_m && ny * by <= kSiteExtent_m)) {
+    bay_size_value.fail_plain("the frame is " + format_number(nx * bx) + " m by " + format_number(ny * by) +
+                              " m (bays x bay size); expected at most " + format_number(kSiteExtent_m) + " m (the site extent)");
+  }
+  if (!(storeys * h <= kSiteExtent_m)) {
+    storey_value.fail_plain("the frame is " + format_number(storeys * h) + " m tall (storeys x storey height); expected at most " +
+                            format_number(kSiteExtent_m) + " m (the site extent)");
+  }
+  const std::size_t members = static_cast<std::size_t>(storeys) *
+                              static_cast<std::size_t>((nx + 1) * (ny + 1) + nx * (ny + 1) + (nx + 1) * ny);
+  if (out.size() + members > kMaxStaticObstacles) {
+    bays_value.fail_plain("the frame has " + std::to_string(members) + " members, which with the " + std::to_string(out.size()) +
+                          " static obstacles before it exceeds the limit of " + std::to_string(kMaxStaticObstacles));
+  }
 
   Eigen::Isometry3d frame = Eigen::Isometry3d::Identity();
   frame.translate(origin);
@@ -282,9 +319,10 @@ void read_steel_frame(Fields& f, const std::string& name, std::vector<StaticObst
 
 void read_obstacles(const Value& value, std::vector<StaticObstacle>& out, std::set<std::string>& names) {
   for (const Value& item : value.list()) {
+    if (out.size() >= kMaxStaticObstacles) item.fail_plain("more than " + std::to_string(kMaxStaticObstacles) + " static obstacles, the limit");
     Fields f = item.fields();
     const Value name_value = f.required("name");
-    const std::string name = name_value.text();
+    const std::string name = name_value.name();
     if (!names.insert(name).second) name_value.fail("a name not used by another obstacle");
     const Value type = f.required("type");
     const std::string t = type.choice({"box", "cylinder", "capsule", "mesh", "steel_frame"});
@@ -304,7 +342,7 @@ DynamicObstacleSpec read_dynamic(const Value& value, std::set<std::string>& name
   Fields f = value.fields();
   DynamicObstacleSpec d;
   const Value name_value = f.required("name");
-  d.obstacle.name = name_value.text();
+  d.obstacle.name = name_value.name();
   if (!names.insert(d.obstacle.name).second) name_value.fail("a name not used by another obstacle");
   for (const Value& part : f.required("parts").non_empty_list()) {
     Fields pf = part.fields();
@@ -317,10 +355,10 @@ DynamicObstacleSpec read_dynamic(const Value& value, std::set<std::string>& name
     Fields kf = key.fields();
     Keyframe k;
     const Value t = kf.required("t_s");
-    k.t_s = t.non_negative();
+    k.t_s = t.number_in(0.0, kMaxScriptTime_s);
     if (!d.motion.empty() && !(k.t_s > d.motion.back().t_s)) t.fail("a time after the previous key's " + format_number(d.motion.back().t_s) + " s");
-    k.position_m = kf.required("position_m").vec3();
-    k.yaw_rad = kf.required("yaw_deg").number() * kDegToRad;
+    k.position_m = kf.required("position_m").position_m();
+    k.yaw_rad = kf.required("yaw_deg").angle_deg() * kDegToRad;
     kf.finish();
     d.motion.push_back(k);
   }
@@ -331,7 +369,7 @@ DynamicObstacleSpec read_dynamic(const Value& value, std::set<std::string>& name
       const Value id = tf.required("id");
       t.id = id.integer(0, 255);
       if (!tag_ids.insert(t.id).second) id.fail("a tag id not used by another tag");
-      t.position_m = tf.required("position_m").vec3();
+      t.position_m = tf.required("position_m").position_m();
       tf.finish();
       d.tags.push_back(t);
     }
@@ -373,14 +411,14 @@ EnvelopeSpec read_envelope(const Value& value) {
   const Value points = f.required("points");
   std::set<std::string> seen;
   for (const Value& p : points.non_empty_list()) {
-    std::string name = p.text();
+    std::string name = p.name();
     if (!seen.insert(name).second) p.fail("a key point not already listed");
     e.points.push_back(std::move(name));
   }
   e.points_ref = {value.file(), points.line(), points.path()};
-  if (auto v = f.optional("height_ceiling_m")) e.height_ceiling_m = v->number();
+  if (auto v = f.optional("height_ceiling_m")) e.height_ceiling_m = v->coordinate_m();
   if (auto v = f.optional("depth_floor_m")) {
-    e.depth_floor_m = v->number();
+    e.depth_floor_m = v->coordinate_m();
     if (e.height_ceiling_m && !(*e.depth_floor_m < *e.height_ceiling_m)) v->fail("a floor below height_ceiling_m");
   }
   auto left = f.optional("slew_left_deg");
@@ -393,9 +431,9 @@ EnvelopeSpec read_envelope(const Value& value) {
     e.slew_right_rad = right->number_in(-180.0, 180.0) * kDegToRad;
     if (*e.slew_left_rad == *e.slew_right_rad) left->fail("an angle other than slew_right_deg (the allowed sector runs counter-clockwise from right to left)");
   }
-  if (auto v = f.optional("radius_min_m")) e.radius_min_m = v->non_negative();
+  if (auto v = f.optional("radius_min_m")) e.radius_min_m = v->non_negative_length_m();
   if (auto v = f.optional("radius_max_m")) {
-    e.radius_max_m = v->positive();
+    e.radius_max_m = v->length_m();
     if (e.radius_min_m && !(*e.radius_max_m > *e.radius_min_m)) v->fail("a radius above radius_min_m");
   }
   if (auto walls = f.optional("walls")) {
@@ -406,14 +444,16 @@ EnvelopeSpec read_envelope(const Value& value) {
       const Value normal = wf.required("normal");
       EnvelopeWallSpec wall;
       wall.normal = normal.vec3();
-      if (!(wall.normal.norm() > 1e-9)) normal.fail("a non-zero normal pointing into the allowed side");
-      wall.normal.normalize();
-      wall.offset_m = wf.required("offset_m").number();
+      // stableNorm: components near the largest double would overflow the plain norm to infinity.
+      const double norm = wall.normal.stableNorm();
+      if (!(norm > 1e-9)) normal.fail("a non-zero normal pointing into the allowed side");
+      wall.normal /= norm;
+      wall.offset_m = wf.required("offset_m").coordinate_m();
       wf.finish();
       e.walls.push_back(wall);
     }
   }
-  if (auto v = f.optional("slowdown_band_m")) e.slowdown_band_m = v->positive();
+  if (auto v = f.optional("slowdown_band_m")) e.slowdown_band_m = v->length_m();
   f.finish();
   if (!e.height_ceiling_m && !e.depth_floor_m && !e.slew_left_rad && !e.radius_min_m && !e.radius_max_m && e.walls.empty()) {
     value.fail_plain("an envelope needs at least one limit (height_ceiling_m, depth_floor_m, slew_left_deg/slew_right_deg, "
@@ -450,7 +490,7 @@ JointVector read_configuration(const Value& value, const MachineDefinition& mach
     const std::string key = j.name + (revolute ? "_deg" : "_m");
     const Value v = f.required(key);
     const double scale = revolute ? kDegToRad : 1.0;
-    const double x = v.number();
+    const double x = revolute ? v.angle_deg() : v.coordinate_m();
     if (!j.continuous && (x * scale < j.position_min - 1e-12 || x * scale > j.position_max + 1e-12)) {
       v.fail("a value within the joint range [" + format_number(j.position_min / scale) + ", " +
              format_number(j.position_max / scale) + "] " + (revolute ? "deg" : "m") + " of " + machine.file);
@@ -503,8 +543,8 @@ TaskSpec read_task(const Value& value, const MachineDefinition& machine) {
       }
     }
   }
-  t.load_size_m = f.required("load_size_m").positive_vec3();
-  t.sling_length_m = f.required("sling_length_m").non_negative();
+  t.load_size_m = f.required("load_size_m").size_m();
+  t.sling_length_m = f.required("sling_length_m").non_negative_length_m();
   f.finish();
   return t;
 }
@@ -517,29 +557,34 @@ PlannerParams read_planner(const Value& value) {
   if (auto v = f.optional("goal_bias")) p.goal_bias = v->number_in(0.0, 1.0);
   if (auto v = f.optional("space_resolution")) p.space_resolution = v->integer(1, 1000000);
   if (auto v = f.optional("error_tolerance")) p.error_tolerance = v->positive();
-  if (auto v = f.optional("dilation_m")) p.dilation_m = v->non_negative();
+  if (auto v = f.optional("dilation_m")) p.dilation_m = v->non_negative_length_m();
   if (auto v = f.optional("replan_max_iterations")) p.replan_max_iterations = v->integer(1, 100000000);
   if (auto v = f.optional("replan_goal_bias")) p.replan_goal_bias = v->number_in(0.0, 1.0);
   f.finish();
   return p;
 }
 
-}  // namespace
-
-Scenario load_scenario(const std::filesystem::path& path) {
+Scenario read_scenario(const std::filesystem::path& path) {
   const std::string file = path.string();
   const YAML::Node root = load_yaml(file);
   const Value root_value(root, "", &file, 1);
   Fields f = root_value.fields();
   Scenario s;
   s.file = file;
-  s.name = f.required("name").text();
+  s.name = f.required("name").name();
   if (auto d = f.optional("description")) s.description = d->text();
 
   const Value machine_value = f.required("machine");
   const std::filesystem::path machine_path = path.parent_path() / machine_value.text();
-  if (!std::filesystem::exists(machine_path)) {
-    machine_value.fail("a machine file relative to the scenario's folder (" + machine_path.string() + " does not exist)");
+  // Looked at before load_machine, so that the complaint names this field; the error_code forms
+  // throw nothing, not even for a name longer than the system allows.
+  std::error_code missing;
+  if (!std::filesystem::exists(machine_path, missing) && !missing) {
+    machine_value.fail("a machine file relative to the scenario's folder (" + echo(machine_path.string(), kMaxPathEchoChars) +
+                       " does not exist)");
+  }
+  if (const std::string problem = input_file_problem(machine_path); !problem.empty()) {
+    machine_value.fail_plain("the machine file " + echo(machine_path.string(), kMaxPathEchoChars) + ": " + problem);
   }
   s.machine = load_machine(machine_path);
   if (auto dual = f.optional("dual_crane")) s.dual_crane = read_dual_crane(*dual, s.machine);
@@ -549,8 +594,8 @@ Scenario load_scenario(const std::filesystem::path& path) {
   } else {
     Fields base = f.required("base").fields();
     s.world_from_base = Eigen::Isometry3d::Identity();
-    s.world_from_base.translate(base.required("position_m").vec3());
-    s.world_from_base.rotate(Eigen::AngleAxisd(base.required("yaw_deg").number() * kDegToRad, Eigen::Vector3d::UnitZ()));
+    s.world_from_base.translate(base.required("position_m").position_m());
+    s.world_from_base.rotate(Eigen::AngleAxisd(base.required("yaw_deg").angle_deg() * kDegToRad, Eigen::Vector3d::UnitZ()));
     base.finish();
   }
 
@@ -586,7 +631,7 @@ Scenario load_scenario(const std::filesystem::path& path) {
   return s;
 }
 
-LoadedScenario load_and_build(const std::filesystem::path& file) {
+LoadedScenario build_scenario(const std::filesystem::path& file) {
   LoadedScenario out;
   out.scenario = load_scenario(file);
   try {
@@ -601,6 +646,20 @@ LoadedScenario load_and_build(const std::filesystem::path& file) {
     throw InputError(out.scenario.file, 0, "obstacles", e.what());
   }
   return out;
+}
+
+}  // namespace
+
+MachineDefinition load_machine(const std::filesystem::path& path) {
+  return guarded(path.string(), [&] { return read_machine(path); });
+}
+
+Scenario load_scenario(const std::filesystem::path& path) {
+  return guarded(path.string(), [&] { return read_scenario(path); });
+}
+
+LoadedScenario load_and_build(const std::filesystem::path& path) {
+  return guarded(path.string(), [&] { return build_scenario(path); });
 }
 
 std::vector<InputError> check_endpoints(LoadedScenario& loaded) {

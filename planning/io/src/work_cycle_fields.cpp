@@ -24,7 +24,7 @@ std::string deg_text(double angle_rad) {
 // One joint value of the dump, in degrees in the file, checked against the joint's range.
 double read_joint_deg(const Value& value, const MachineDefinition& machine, int joint) {
   const JointSpec& j = machine.joints[static_cast<std::size_t>(joint)];
-  const double angle_rad = value.number() * kDegToRad;
+  const double angle_rad = value.angle_deg() * kDegToRad;
   if (angle_rad < j.position_min - 1e-12 || angle_rad > j.position_max + 1e-12) {
     value.fail("a value within the joint range [" + deg_text(j.position_min) + ", " + deg_text(j.position_max) +
                "] deg of " + machine.file);

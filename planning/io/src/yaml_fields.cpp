@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "yaml_fields.hpp"
 
+#include <yaml-cpp/eventhandler.h>
+
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <sstream>
 
@@ -11,20 +12,25 @@ namespace mgc::planning::io {
 namespace {
 
 // Appended piece by piece: GCC 12 at -O3 misreads the equivalent chain of operator+ temporaries as
-// an overlapping memcpy (-Wrestrict) and would fail a Release build.
+// an overlapping memcpy (-Wrestrict) and would fail a Release build. Every piece is echoed, so the
+// line stays one line of at most kMaxMessageChars whatever the file held.
 std::string input_error_text(const std::string& file, int line, const std::string& field, const std::string& message) {
-  std::string text = file;
+  std::string text = echo(file, kMaxPathEchoChars);
   if (line > 0) text.append(":").append(std::to_string(line));
   text.append(": ");
-  if (!field.empty()) text.append(field).append(": ");
-  text.append(message);
+  if (!field.empty()) text.append(echo(field, kMaxEchoChars)).append(": ");
+  const std::size_t room = kMaxMessageChars > text.size() + 40 ? kMaxMessageChars - text.size() : 40;
+  text.append(echo(message, room));
   return text;
 }
 
 }  // namespace
 
 InputError::InputError(const std::string& file, int line, const std::string& field, const std::string& message)
-    : std::runtime_error(input_error_text(file, line, field, message)), file_(file), line_(line), field_(field) {}
+    : std::runtime_error(input_error_text(file, line, field, message)),
+      file_(file),
+      line_(line),
+      field_(field.size() > kMaxEchoChars ? echo(field, kMaxEchoChars) : field) {}
 
 Value::Value(YAML::Node node, std::string path, const std::string* file, int fallback_line, int key_line)
     : node_(std::move(node)), path_(std::move(path)), file_(file), fallback_line_(fallback_line), key_line_(key_line) {}
@@ -37,7 +43,7 @@ int Value::line() const noexcept {
 
 std::string Value::describe() const {
   if (!node_.IsDefined() || node_.IsNull()) return "nothing";
-  if (node_.IsScalar()) return "'" + node_.Scalar() + "'";
+  if (node_.IsScalar()) return "'" + echo(node_.Scalar()) + "'";
   if (node_.IsSequence()) return "a list of " + std::to_string(node_.size());
   return "a map";
 }
@@ -107,6 +113,70 @@ std::uint64_t Value::unsigned_integer() const {
 std::string Value::text() const {
   if (!node_.IsScalar() || node_.Scalar().empty()) fail("text");
   return node_.Scalar();
+}
+
+std::string Value::name() const {
+  const std::string t = text();
+  if (t.size() > kMaxNameChars) fail("a name of at most " + std::to_string(kMaxNameChars) + " characters");
+  for (const char c : t) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) fail("a name without control characters");
+  }
+  return t;
+}
+
+namespace {
+
+std::string extent_text() {
+  std::ostringstream s;
+  s << kSiteExtent_m;
+  return s.str();
+}
+
+}  // namespace
+
+double Value::coordinate_m() const {
+  const double v = number();
+  if (!(std::abs(v) <= kSiteExtent_m)) fail("a coordinate within the site extent [-" + extent_text() + ", " + extent_text() + "] m");
+  return v;
+}
+
+double Value::length_m() const {
+  const double v = positive();
+  if (!(v <= kSiteExtent_m)) fail("a length of at most " + extent_text() + " m (the site extent)");
+  return v;
+}
+
+double Value::non_negative_length_m() const {
+  const double v = non_negative();
+  if (!(v <= kSiteExtent_m)) fail("a length of at most " + extent_text() + " m (the site extent)");
+  return v;
+}
+
+double Value::angle_deg() const {
+  const double v = number();
+  if (!(std::abs(v) <= kMaxAngle_deg)) {
+    std::ostringstream s;
+    s << "an angle within [-" << kMaxAngle_deg << ", " << kMaxAngle_deg << "] deg";
+    fail(s.str());
+  }
+  return v;
+}
+
+Eigen::Vector3d Value::position_m() const {
+  if (!node_.IsSequence() || node_.size() != 3) fail("a list of 3 numbers [x, y, z]");
+  Eigen::Vector3d v;
+  const auto items = list();
+  for (int i = 0; i < 3; ++i) v[i] = items[static_cast<std::size_t>(i)].coordinate_m();
+  return v;
+}
+
+Eigen::Vector3d Value::size_m() const {
+  if (!node_.IsSequence() || node_.size() != 3) fail("a list of 3 positive numbers");
+  Eigen::Vector3d v;
+  const auto items = list();
+  for (int i = 0; i < 3; ++i) v[i] = items[static_cast<std::size_t>(i)].length_m();
+  return v;
 }
 
 bool Value::boolean() const {
@@ -252,13 +322,56 @@ void Fields::finish() const {
   }
 }
 
+namespace {
+
+// Counts the values of a document's parse events and stops the parse past kMaxYamlValues, before a
+// node tree is built: yaml-cpp spends some 500 bytes on each node, so a few megabytes of "0," would
+// otherwise take gigabytes.
+class ValueCounter : public YAML::EventHandler {
+ public:
+  struct TooMany {
+    YAML::Mark mark;
+  };
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { count(mark); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { count(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override { count(mark); }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    count(mark);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override { count(mark); }
+  void OnMapEnd() override {}
+
+ private:
+  void count(const YAML::Mark& mark) {
+    if (++values_ > kMaxYamlValues) throw TooMany{mark};
+  }
+  std::size_t values_ = 0;
+};
+
+}  // namespace
+
 YAML::Node load_yaml(const std::string& file) {
-  std::ifstream in(file);
-  if (!in) throw InputError(file, 0, "", "cannot open the file");
+  std::string text;
+  if (std::string problem = read_input_file(file, text); !problem.empty()) throw InputError(file, 0, "", problem);
   try {
-    return YAML::Load(in);
+    {
+      std::istringstream in(text);
+      YAML::Parser parser(in);
+      ValueCounter counter;
+      // Only the first document: it is the one YAML::Load reads.
+      (void)parser.HandleNextDocument(counter);
+    }
+    return YAML::Load(text);
+  } catch (const ValueCounter::TooMany& e) {
+    throw InputError(file, e.mark.line + 1, "",
+                     "more than " + std::to_string(kMaxYamlValues) + " YAML values (scalars, lists and maps), the limit");
   } catch (const YAML::ParserException& e) {
     throw InputError(file, e.mark.line + 1, "", "YAML syntax error: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    throw InputError(file, e.mark.line + 1, "", "YAML error: " + e.msg);
   }
 }
 

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "mgc/planning/io/input_error.hpp"
+#include "mgc/planning/io/input_limits.hpp"
 
 namespace mgc::planning::io {
 
@@ -44,6 +45,16 @@ class Value {
   [[nodiscard]] int integer(int lo, int hi) const;
   [[nodiscard]] std::uint64_t unsigned_integer() const;
   [[nodiscard]] std::string text() const;                //!< non-empty scalar
+  //! Text of at most kMaxNameChars characters, none of them a control character.
+  [[nodiscard]] std::string name() const;
+  //! Site-extent bounds (input_limits.hpp): a coordinate within +-kSiteExtent_m, a length in
+  //! (0, kSiteExtent_m] or [0, kSiteExtent_m], an angle within +-kMaxAngle_deg.
+  [[nodiscard]] double coordinate_m() const;
+  [[nodiscard]] double length_m() const;
+  [[nodiscard]] double non_negative_length_m() const;
+  [[nodiscard]] double angle_deg() const;
+  [[nodiscard]] Eigen::Vector3d position_m() const;     //!< [x, y, z], each a coordinate
+  [[nodiscard]] Eigen::Vector3d size_m() const;         //!< [x, y, z], each a length
   [[nodiscard]] bool boolean() const;
   [[nodiscard]] Eigen::Vector3d vec3() const;            //!< [x, y, z], finite
   [[nodiscard]] Eigen::Vector3d positive_vec3() const;   //!< [x, y, z], each > 0

@@ -7,7 +7,9 @@
 namespace mgc::planning::io {
 
 //! A problem with an input file, as one line: "<file>:<line>: <field>: <what was expected>, got
-//! <what was found>". Programs print it and exit with status 2.
+//! <what was found>". Programs print it and exit with status 2. The line is at most
+//! kMaxMessageChars long, its pieces cut and their control characters escaped (echo(),
+//! input_limits.hpp); file() keeps the whole path.
 class InputError : public std::runtime_error {
  public:
   InputError(const std::string& file, int line, const std::string& field, const std::string& message);
