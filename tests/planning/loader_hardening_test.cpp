@@ -164,6 +164,11 @@ TEST_CASE("hardening: only regular files are read", "[unit]") {
     CHECK(e.line() == 2);
     CHECK(contains(e.what(), "got a directory"));
   }
+  SECTION("a machine path with a NUL is refused, not cut short") {
+    const fs::path file = dir.write("scenario.yaml", scenario_text("\"" + machine_path() + "\\0.bak\""));
+    const auto e = expect_error(file, file.string() + ":2: machine: ");
+    CHECK(contains(e.what(), "expected a path without control characters, got '" + machine_path() + "\\x00.bak'"));
+  }
   SECTION("a machine file under /proc that cannot be read names it") {
     const fs::path file = dir.write("scenario.yaml", scenario_text("/proc/self/mem"));
     const auto e = expect_error(file, "/proc/self/mem: ");

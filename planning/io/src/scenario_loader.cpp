@@ -575,7 +575,12 @@ Scenario read_scenario(const std::filesystem::path& path) {
   if (auto d = f.optional("description")) s.description = d->text();
 
   const Value machine_value = f.required("machine");
-  const std::filesystem::path machine_path = path.parent_path() / machine_value.text();
+  const std::string machine_name = machine_value.text();
+  // A NUL would silently cut the path the system sees; no file name needs a control character.
+  for (const char c : machine_name) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) machine_value.fail("a path without control characters");
+  }
+  const std::filesystem::path machine_path = path.parent_path() / machine_name;
   // Looked at before load_machine, so that the complaint names this field; the error_code forms
   // throw nothing, not even for a name longer than the system allows.
   std::error_code missing;
