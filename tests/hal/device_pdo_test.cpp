@@ -4,8 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <string>
 
 #include "codec_support.hpp"
+#include "mgc/hal/bus_plan.hpp"
 #include "mgc/hal/device_pdos.hpp"
 
 using namespace mgc::hal;
@@ -161,4 +163,120 @@ TEST_CASE("valve status round trips consistent states and refuses the rest", "[u
   CHECK(decode_valve_status(failsafe_without_reason).status == Status::OutOfRange);
   CHECK(encode_valve_status({0x30, ValveState::Fault, ValveReason::CommandTimeout, 0, 0}).status ==
         Status::OutOfRange);
+}
+
+TEST_CASE("cut-off command round trips both patterns and refuses every other byte", "[unit][codec]") {
+  for (const PilotCommand command : {PilotCommand::Cut, PilotCommand::Enable}) {
+    const auto f = encode_cutoff_command({0x31, command});
+    REQUIRE(f.ok());
+    CHECK(f.value.can_id == 0x231);
+    CHECK(f.value.dlc == 1);
+    CHECK(f.value.data[0] == static_cast<std::uint8_t>(command));
+    const auto m = decode_cutoff_command(f.value);
+    REQUIRE(m.ok());
+    CHECK(m.value.node_id == 0x31);
+    CHECK(m.value.command == command);
+    check_malformed_framing(f.value, decode_cutoff_command);
+  }
+  CHECK(encode_cutoff_command({0x31, PilotCommand::Enable}).value.data[0] == 0xA5);
+  CHECK(encode_cutoff_command({0x31, PilotCommand::Cut}).value.data[0] == 0x00);
+
+  // Only the two patterns decode: one flipped bit of either is refused, never read as enable.
+  const CanFrame good = encode_cutoff_command({0x31, PilotCommand::Enable}).value;
+  int refused = 0;
+  for (int byte = 0; byte <= 0xFF; ++byte) {
+    if (byte == 0x00 || byte == 0xA5) continue;
+    CanFrame f = good;
+    f.data[0] = static_cast<std::uint8_t>(byte);
+    CAPTURE(byte);
+    CHECK(decode_cutoff_command(f).status == Status::OutOfRange);
+    ++refused;
+  }
+  CHECK(refused == 254);
+  CanFrame status_id = good;
+  status_id.can_id = 0x1B1;
+  CHECK(decode_cutoff_command(status_id).status == Status::WrongId);
+  CHECK(encode_cutoff_command({0x31, static_cast<PilotCommand>(0x01)}).status == Status::OutOfRange);
+  CHECK(encode_cutoff_command({0, PilotCommand::Cut}).status == Status::OutOfRange);
+  CHECK(encode_cutoff_command({128, PilotCommand::Enable}).status == Status::OutOfRange);
+}
+
+TEST_CASE("cut-off status round trips consistent state and reason pairs and refuses the rest", "[unit][codec]") {
+  const CutoffStatus cases[] = {
+      {0x31, CutoffState::Enabled, CutoffReason::None, true},
+      {0x31, CutoffState::Enabled, CutoffReason::None, false},
+      {0x31, CutoffState::Cut, CutoffReason::Commanded, false},
+      {0x31, CutoffState::Cut, CutoffReason::NotOperational, false},
+      {0x31, CutoffState::Cut, CutoffReason::ControllerHeartbeatLost, false},
+      {0x31, CutoffState::Cut, CutoffReason::CommandTimeout, true},  // a dump valve that failed
+      {0x31, CutoffState::Fault, CutoffReason::InternalFault, false},
+  };
+  for (const CutoffStatus& in : cases) {
+    const auto f = encode_cutoff_status(in);
+    REQUIRE(f.ok());
+    CHECK(f.value.can_id == 0x1B1);
+    CHECK(f.value.dlc == 3);
+    CHECK(f.value.data[0] == static_cast<std::uint8_t>(in.state));
+    CHECK(f.value.data[1] == static_cast<std::uint8_t>(in.reason));
+    CHECK(f.value.data[2] == (in.pressure ? 1 : 0));
+    const auto m = decode_cutoff_status(f.value);
+    REQUIRE(m.ok());
+    CHECK(m.value.node_id == 0x31);
+    CHECK(m.value.state == in.state);
+    CHECK(m.value.reason == in.reason);
+    CHECK(m.value.pressure == in.pressure);
+  }
+  const CanFrame good = encode_cutoff_status(cases[0]).value;
+  check_malformed_framing(good, decode_cutoff_status);
+
+  // Every state byte 0..3 against every reason byte 0..6: exactly the documented pairs decode.
+  for (int state = 0; state <= 3; ++state) {
+    for (int reason = 0; reason <= 6; ++reason) {
+      CanFrame f = good;
+      f.data[0] = static_cast<std::uint8_t>(state);
+      f.data[1] = static_cast<std::uint8_t>(reason);
+      const bool consistent = (state == 0 && reason >= 1 && reason <= 4) || (state == 1 && reason == 0) ||
+                              (state == 2 && reason == 5);
+      CAPTURE(state, reason);
+      CHECK(decode_cutoff_status(f).status == (consistent ? Status::Ok : Status::OutOfRange));
+    }
+  }
+  for (const std::uint8_t pressure : {std::uint8_t{0x02}, std::uint8_t{0x03}, std::uint8_t{0x80}, std::uint8_t{0xFF}}) {
+    CanFrame f = good;
+    f.data[2] = pressure;
+    CAPTURE(static_cast<int>(pressure));
+    CHECK(decode_cutoff_status(f).status == Status::ReservedBits);
+  }
+  CanFrame command_id = good;
+  command_id.can_id = 0x231;
+  CHECK(decode_cutoff_status(command_id).status == Status::WrongId);
+  CHECK(encode_cutoff_status({0x31, CutoffState::Enabled, CutoffReason::Commanded, true}).status == Status::OutOfRange);
+  CHECK(encode_cutoff_status({0x31, CutoffState::Cut, CutoffReason::None, false}).status == Status::OutOfRange);
+  CHECK(encode_cutoff_status({0x31, CutoffState::Cut, CutoffReason::InternalFault, false}).status == Status::OutOfRange);
+  CHECK(encode_cutoff_status({0x31, CutoffState::Fault, CutoffReason::CommandTimeout, false}).status ==
+        Status::OutOfRange);
+  CHECK(encode_cutoff_status({0, CutoffState::Cut, CutoffReason::Commanded, false}).status == Status::OutOfRange);
+}
+
+TEST_CASE("bus plans classify the cut-off node's command and status", "[unit][codec]") {
+  for (const BusPlan& plan : {mobile_crane_bus_plan(), tower_crane_bus_plan(), excavator_bus_plan()}) {
+    CAPTURE(plan.machine);
+    CHECK(plan.cutoff_node_id == 0x31);
+    const Classified command = classify(CanFrame::standard(0x231, 1), plan);
+    CHECK(command.kind == MessageKind::CutoffCommand);
+    CHECK(command.node_id == 0x31);
+    const Classified status = classify(CanFrame::standard(0x1B1, 3), plan);
+    CHECK(status.kind == MessageKind::CutoffStatus);
+    CHECK(status.node_id == 0x31);
+    CHECK(classify(CanFrame::standard(0x731, 1), plan).kind == MessageKind::Heartbeat);
+    CHECK(classify(CanFrame::standard(0x0B1, 8), plan).kind == MessageKind::Emcy);
+    // The node has no other PDO: its TPDO2 and RPDO2 are not in the plan.
+    CHECK(classify(CanFrame::standard(0x2B1, 8), plan).kind == MessageKind::Unknown);
+    CHECK(classify(CanFrame::standard(0x331, 8), plan).kind == MessageKind::Unknown);
+    // The valve's PDOs stay the valve's.
+    CHECK(classify(CanFrame::standard(0x230, 8), plan).kind == MessageKind::ValveCommand);
+    CHECK(classify(CanFrame::standard(0x1B0, 4), plan).kind == MessageKind::ValveStatus);
+  }
+  CHECK(std::string(to_string(MessageKind::CutoffCommand)) == "cut-off command");
+  CHECK(std::string(to_string(MessageKind::CutoffStatus)) == "cut-off status");
 }

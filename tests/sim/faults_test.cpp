@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,25 @@ sim::SimConfig with_fault(const std::string& text) {
 std::string parse_error(const std::string& text) {
   try {
     (void)sim::parse_fault(text, kCraneJoints);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+//! The crane's joints as the machine file gives them: two revolute, two prismatic.
+std::vector<planning::JointSpec> crane_joint_specs() {
+  std::vector<planning::JointSpec> specs(kCraneJoints.size());
+  for (std::size_t j = 0; j < specs.size(); ++j) {
+    specs[j].name = kCraneJoints[j];
+    specs[j].type = j < 2 ? planning::JointType::Revolute : planning::JointType::Prismatic;
+  }
+  return specs;
+}
+
+std::string machine_parse_error(const std::string& text) {
+  try {
+    (void)sim::parse_machine_fault(text, crane_joint_specs());
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -71,6 +91,88 @@ TEST_CASE("bad fault texts are refused with the part at fault", "[sim][faults]")
   CHECK_THAT(parse_error("uwb-silent@1+-2"), Catch::Contains("duration"));
   CHECK_THAT(parse_error("tag-noise:300"), Catch::Contains("tag id"));
   CHECK_THAT(parse_error("uwb-silent,sigma_m=2"), Catch::Contains("unknown option"));
+}
+
+TEST_CASE("the cut-off and encoder-offset faults parse, offsets in the joint's unit", "[sim][faults]") {
+  const std::vector<planning::JointSpec> joints = crane_joint_specs();
+  constexpr double kDeg = std::numbers::pi / 180.0;
+
+  const sim::Fault swing = sim::parse_machine_fault("encoder-offset:swing@4,offset=-20", joints);
+  CHECK(swing.kind == FaultKind::EncoderOffset);
+  CHECK(swing.target.kind == FaultTarget::Kind::Joint);
+  CHECK(swing.target.index == 0);
+  CHECK(swing.start_s == 4.0);
+  CHECK(std::isinf(swing.duration_s));
+  CHECK(swing.offset == Approx(-20.0 * kDeg));
+  CHECK(swing.offset_rate == 0.0);
+
+  const sim::Fault elevation = sim::parse_machine_fault("encoder-offset:boom_elevation@4+2,rate=0.5,offset=1.5", joints);
+  CHECK(elevation.target.index == 1);
+  CHECK(elevation.duration_s == 2.0);
+  CHECK(elevation.offset == Approx(1.5 * kDeg));
+  CHECK(elevation.offset_rate == Approx(0.5 * kDeg));
+
+  // Prismatic: metres as given.
+  const sim::Fault length = sim::parse_machine_fault("encoder-offset:boom_length,rate=-0.25", joints);
+  CHECK(length.target.index == 2);
+  CHECK(length.start_s == 0.0);
+  CHECK(length.offset == 0.0);
+  CHECK(length.offset_rate == -0.25);
+  CHECK(sim::parse_machine_fault("encoder-offset:cable_length,offset=0.3", joints).offset == 0.3);
+
+  const sim::Fault fail = sim::parse_machine_fault("cutoff-fail@7+1", joints);
+  CHECK(fail.kind == FaultKind::CutoffFail);
+  CHECK(fail.target.kind == FaultTarget::Kind::None);
+  CHECK(fail.start_s == 7.0);
+  CHECK(fail.duration_s == 1.0);
+  CHECK(sim::parse_fault("cutoff-fail", kCraneJoints).kind == FaultKind::CutoffFail);
+
+  const sim::Fault lost = sim::parse_fault("heartbeat-lost:cutoff@2", kCraneJoints);
+  CHECK(lost.kind == FaultKind::HeartbeatLost);
+  CHECK(lost.target.kind == FaultTarget::Kind::Cutoff);
+  CHECK(lost.target.index == -1);
+  CHECK(sim::parse_machine_fault("heartbeat-lost:cutoff", joints).target.kind == FaultTarget::Kind::Cutoff);
+  // The machine's joints change nothing for the other kinds.
+  const sim::Fault stuck = sim::parse_machine_fault("encoder-stuck:boom_length@3", joints);
+  CHECK(stuck.target.index == 2);
+  CHECK(stuck.offset == 0.0);
+
+  CHECK(std::string(sim::to_string(FaultKind::EncoderOffset)) == "encoder-offset");
+  CHECK(std::string(sim::to_string(FaultKind::CutoffFail)) == "cutoff-fail");
+  CHECK_THAT(sim::fault_syntax(), Catch::Contains("encoder-offset:JOINT") && Catch::Contains("; cutoff-fail") &&
+                                      Catch::Contains("heartbeat-lost:JOINT | uwb | valve | cutoff") &&
+                                      Catch::Contains("[,offset=X][,rate=X]"));
+}
+
+TEST_CASE("bad cut-off and encoder-offset texts are refused with the part at fault", "[sim][faults]") {
+  CHECK_THAT(machine_parse_error("encoder-offset:swing"),
+             Catch::Contains("fault \"encoder-offset:swing\"") && Catch::Contains("needs offset=X or rate=X"));
+  CHECK_THAT(machine_parse_error("encoder-offset:swing,offset=0,rate=0"), Catch::Contains("not both zero"));
+  CHECK_THAT(machine_parse_error("encoder-offset,offset=1"), Catch::Contains("encoder-offset needs a target JOINT"));
+  CHECK_THAT(machine_parse_error("encoder-offset:cutoff,offset=1"),
+             Catch::Contains("unknown target \"cutoff\"") && !Catch::Contains("uwb, valve"));
+  CHECK_THAT(machine_parse_error("encoder-offset:swing,offset=x"),
+             Catch::Contains("offset: expected a number within +-1e6, got \"x\""));
+  CHECK_THAT(machine_parse_error("encoder-offset:swing,rate=2e6"), Catch::Contains("rate: expected a number within +-1e6"));
+  CHECK_THAT(machine_parse_error("encoder-offset:swing,rate=nan"), Catch::Contains("rate: expected a number"));
+  CHECK_THAT(machine_parse_error("encoder-offset:swing,offset="), Catch::Contains("offset: expected a number"));
+  CHECK_THAT(machine_parse_error("encoder-offset:swing,sigma_m=2"),
+             Catch::Contains("unknown option \"sigma_m=2\" for encoder-offset (offset=X, rate=X per s; deg or m)"));
+  // offset and rate belong to encoder-offset alone.
+  CHECK_THAT(machine_parse_error("encoder-stuck:swing,offset=2"),
+             Catch::Contains("unknown option \"offset=2\" for encoder-stuck (none)"));
+  CHECK_THAT(machine_parse_error("tag-noise:2,rate=1"), Catch::Contains("unknown option \"rate=1\" for tag-noise (sigma_m=M)"));
+  CHECK_THAT(machine_parse_error("cutoff-fail,offset=1"), Catch::Contains("unknown option \"offset=1\" for cutoff-fail (none)"));
+  CHECK_THAT(machine_parse_error("cutoff-fail:valve"), Catch::Contains("cutoff-fail takes no target, got \"valve\""));
+  // cutoff is a heartbeat-lost target only, named in that kind's list of targets.
+  CHECK_THAT(machine_parse_error("encoder-stuck:cutoff"), Catch::Contains("unknown target \"cutoff\"") && !Catch::Contains("valve"));
+  CHECK_THAT(machine_parse_error("heartbeat-lost:cut-off"),
+             Catch::Contains("unknown target \"cut-off\"") && Catch::Contains("uwb, valve, cutoff"));
+  // Without the machine's joints the unit of an offset is unknown: refused, never guessed.
+  CHECK_THAT(parse_error("encoder-offset:swing,offset=2"),
+             Catch::Contains("encoder-offset needs the machine's joints to know the unit of its values"));
+  CHECK_THAT(parse_error("encoder-offset:boom_length@1,rate=0.1"), Catch::Contains("needs the machine's joints"));
+  CHECK_FALSE(parse_error("encoder-offset:swing").empty());
 }
 
 TEST_CASE("encoder dropout: the joint goes stale within the stale limit, the others stay valid", "[sim][faults]") {

@@ -1,16 +1,21 @@
 // SPDX-License-Identifier: Apache-2.0
 // The simulated machine against the controller's Hal on one in-process bus: start-up, encoders,
-// commanded motion with the documented dynamics, the valve node's fail-safe, UWB tags.
+// commanded motion with the documented dynamics, the valve node's fail-safe, the pilot-pressure
+// cut-off node and its faults, lying encoders, UWB tags.
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <initializer_list>
 #include <numbers>
 
 #include "mgc/hal/canopen.hpp"
+#include "mgc/sim/faults.hpp"
 #include "sim_rig.hpp"
 
 using namespace mgc;
 using hal::Health;
+using hal::pdo::CutoffReason;
+using hal::pdo::CutoffState;
 using hal::pdo::ValveReason;
 using hal::pdo::ValveState;
 using test::SimRig;
@@ -18,6 +23,14 @@ using test::SimRig;
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
+
+//! The quiet rig's configuration with faults given as mgc-sim takes them (units from the machine).
+sim::SimConfig with_faults(std::initializer_list<const char*> texts) {
+  const planning::Scenario scenario = planning::io::load_scenario(test::scenario_path("thesis-steel-frame.yaml"));
+  sim::SimConfig config = SimRig::quiet_config();
+  for (const char* text : texts) config.faults.push_back(sim::parse_machine_fault(text, scenario.machine.joints));
+  return config;
+}
 
 }  // namespace
 
@@ -253,4 +266,247 @@ TEST_CASE("a Stop from NMT disables the valve and the encoders stop sending", "[
     CHECK(rig.last->encoders[j].nmt_state == hal::canopen::NmtState::Stopped);
     CHECK(rig.last->joints[j].health == Health::Stale);
   }
+}
+
+TEST_CASE("the cut-off node holds the pilot cut until it is started and enabled", "[sim][hal][cutoff]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  // Enable commands flow from the first cycle, but a pre-operational node does not act on them.
+  rig.run(200'000);
+  const hal::SensorSnapshot& before = *rig.last;
+  CHECK(before.cutoff.heard);
+  CHECK(before.cutoff.nmt_state == hal::canopen::NmtState::PreOperational);
+  CHECK(before.cutoff.health == Health::Alive);
+  CHECK_FALSE(before.cutoff_status_valid);  // a pre-operational node sends no status
+  CHECK(before.pilot_enable_sent);
+  CHECK(rig.sim->truth().cutoff_state == CutoffState::Cut);
+  CHECK_FALSE(rig.sim->truth().pilot_pressure);
+
+  // Started with the controller asking for the cut: Operational, reporting, still cut.
+  rig.hal->set_pilot_enabled(false);
+  REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0) == hal::Status::Ok);
+  rig.run(50'000);
+  const hal::SensorSnapshot& started = *rig.last;
+  CHECK(started.cutoff.nmt_state == hal::canopen::NmtState::Operational);
+  REQUIRE(started.cutoff_status_valid);
+  CHECK(started.cutoff_status.node_id == hal::kCutoffNodeId);
+  CHECK(started.cutoff_status.state == CutoffState::Cut);
+  CHECK(started.cutoff_status.reason == CutoffReason::Commanded);
+  CHECK_FALSE(started.cutoff_status.pressure);
+  CHECK_FALSE(started.pilot_enable_sent);
+  CHECK_FALSE(rig.sim->truth().pilot_pressure);
+
+  // The first enable command turns the pressure on. Its cycle's SYNC went out before it, so the
+  // status says so at the next SYNC, read a cycle later.
+  rig.hal->set_pilot_enabled(true);
+  rig.run(20'000);
+  CHECK(rig.sim->truth().pilot_pressure);
+  CHECK_FALSE(rig.last->cutoff_status.pressure);
+  rig.run(10'000);
+  const hal::SensorSnapshot& enabled = *rig.last;
+  CHECK(enabled.pilot_enable_sent);
+  CHECK(enabled.cutoff_status.state == CutoffState::Enabled);
+  CHECK(enabled.cutoff_status.reason == CutoffReason::None);
+  CHECK(enabled.cutoff_status.pressure);
+  CHECK(enabled.cutoff.health == Health::Alive);
+  CHECK(rig.sim->truth().cutoff_state == CutoffState::Enabled);
+  CHECK(rig.sim->truth().pilot_pressure);
+  CHECK(rig.sim->counters().pilot_cuts == 0);
+  CHECK(enabled.codec.malformed() == 0);
+  CHECK(rig.sim->counters().codec.malformed() == 0);
+}
+
+TEST_CASE("a commanded cut stops a moving joint while the valve still drives its spool", "[sim][hal][cutoff]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  const double vmax = rig.scenario.machine.joints[0].max_velocity;
+  rig.command[0] = vmax;
+  rig.run(3'000'000);
+  REQUIRE(rig.sim->truth().pilot_pressure);
+  REQUIRE(rig.sim->truth().velocity[0] > 0.9 * vmax);
+
+  rig.hal->set_pilot_enabled(false);
+  rig.run(30'000);
+  CHECK(rig.sim->truth().cutoff_state == CutoffState::Cut);
+  CHECK_FALSE(rig.sim->truth().pilot_pressure);
+  CHECK(rig.last->cutoff_status.state == CutoffState::Cut);
+  CHECK(rig.last->cutoff_status.reason == CutoffReason::Commanded);
+  CHECK_FALSE(rig.last->cutoff_status.pressure);
+  CHECK(rig.sim->counters().pilot_cuts == 1);
+
+  // The lag's tail from full speed is cut once below a millionth of it (actuator_test.cpp).
+  rig.run(5'000'000);
+  const sim::TrueState& t = rig.sim->truth();
+  CHECK(t.velocity[0] == 0.0);
+  // The valve node knows nothing of it: it still applies the full spool and reports it.
+  CHECK(t.spool[0] > 0.99);
+  CHECK(rig.last->valve_active());
+  CHECK(rig.last->valve_applied_fraction[0] > 0.99);
+  const double rest = t.position[0];
+  rig.run(500'000);
+  CHECK(rig.sim->truth().position[0] == rest);
+
+  // A commanded cut does not latch: the next enable drives the joint again.
+  rig.hal->set_pilot_enabled(true);
+  rig.run(3'000'000);
+  CHECK(rig.sim->truth().pilot_pressure);
+  CHECK(rig.sim->truth().velocity[0] > 0.5 * vmax);
+  CHECK(rig.sim->counters().pilot_cuts == 1);
+}
+
+TEST_CASE("commands that stop cut and latch the pilot with an EMCY, only an NMT start re-arms it", "[sim][hal][cutoff][failsafe]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  rig.command[0] = 0.5 * rig.scenario.machine.joints[0].max_velocity;
+  rig.run(500'000);
+  REQUIRE(rig.sim->truth().pilot_pressure);
+  const std::uint32_t emcys_before = rig.last->cutoff.emcy_count;
+
+  // The controller's heartbeat goes on, its commands stop.
+  rig.send_commands = false;
+  const std::int64_t stopped_at = rig.t_us;
+  std::int64_t cut_at = 0;
+  while (rig.t_us - stopped_at < 1'000'000 && cut_at == 0) {
+    rig.run(1'000);
+    if (!rig.sim->truth().pilot_pressure) cut_at = rig.t_us;
+  }
+  REQUIRE(cut_at != 0);
+  const hal::BusTiming& timing = rig.hal->plan().timing;
+  CHECK(cut_at - stopped_at > timing.cutoff_command_timeout_us - SimRig::kCycleUs);
+  CHECK(cut_at - stopped_at <= timing.cutoff_command_timeout_us + SimRig::kCycleUs + 1'000);
+  CHECK(rig.sim->truth().cutoff_state == CutoffState::Cut);
+  CHECK(rig.sim->counters().pilot_cuts == 1);
+
+  // Enable commands again: refused, the cut is latched and the Hal sees why.
+  rig.send_commands = true;
+  rig.run(300'000);
+  const hal::SensorSnapshot& latched = *rig.last;
+  CHECK(latched.pilot_enable_sent);
+  CHECK_FALSE(rig.sim->truth().pilot_pressure);
+  CHECK(latched.cutoff.emcy_code == hal::canopen::kEmcyRpdoTimeout);
+  CHECK(latched.cutoff.emcy_count == emcys_before + 1);
+  CHECK(latched.cutoff.health == Health::Faulted);
+  REQUIRE(latched.cutoff_status_valid);
+  CHECK(latched.cutoff_status.state == CutoffState::Cut);
+  CHECK(latched.cutoff_status.reason == CutoffReason::CommandTimeout);
+  CHECK_FALSE(latched.cutoff_status.pressure);
+
+  // An NMT start of the cut-off alone re-arms it and resets its EMCY; the enables then take.
+  REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Start, hal::kCutoffNodeId) == hal::Status::Ok);
+  rig.run(50'000);
+  const hal::SensorSnapshot& restarted = *rig.last;
+  CHECK(restarted.cutoff.emcy_code == hal::canopen::kEmcyNoError);
+  CHECK(restarted.cutoff.emcy_count == emcys_before + 2);
+  CHECK(restarted.cutoff.health == Health::Alive);
+  CHECK(restarted.cutoff_status.state == CutoffState::Enabled);
+  CHECK(restarted.cutoff_status.pressure);
+  CHECK(rig.sim->truth().pilot_pressure);
+  // Started without a latch, a node sends no reset.
+  REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Start, hal::kCutoffNodeId) == hal::Status::Ok);
+  rig.run(50'000);
+  CHECK(rig.last->cutoff.emcy_count == emcys_before + 2);
+}
+
+TEST_CASE("a lost controller heartbeat with commands still flowing latches the cut with its own EMCY", "[sim][cutoff][failsafe]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  rig.run(100'000);
+  REQUIRE(rig.sim->truth().pilot_pressure);
+  // Enable commands by hand, no heartbeat (the Hal's write() would send it).
+  rig.send_commands = false;
+  const hal::BusPlan plan = rig.hal->plan();
+  const auto enable = hal::pdo::encode_cutoff_command({plan.cutoff_node_id, hal::pdo::PilotCommand::Enable});
+  REQUIRE(enable.ok());
+  const std::int64_t from = rig.t_us;
+  std::int64_t cut_at = 0;
+  while (rig.t_us - from < 500'000 && cut_at == 0) {
+    rig.t_us += 1'000;
+    rig.clock.set_us(rig.t_us);
+    if (rig.t_us % SimRig::kCycleUs == 0) REQUIRE(rig.controller_bus->send(enable.value) == hal::Status::Ok);
+    rig.sim->step(rig.t_us);
+    if (!rig.sim->truth().pilot_pressure) cut_at = rig.t_us;
+  }
+  REQUIRE(cut_at != 0);
+  CHECK(cut_at - from <= plan.timing.cutoff_heartbeat_timeout_us + 1'000);
+  CHECK(cut_at - from >= plan.timing.cutoff_heartbeat_timeout_us - plan.timing.controller_heartbeat_period_us);
+  // The controller comes back with its heartbeat and enables: the cut stays, the EMCY names the loss.
+  rig.send_commands = true;
+  rig.run(100'000);
+  CHECK_FALSE(rig.sim->truth().pilot_pressure);
+  CHECK(rig.last->cutoff.emcy_code == hal::canopen::kEmcyHeartbeat);
+  CHECK(rig.last->cutoff_status.reason == CutoffReason::ControllerHeartbeatLost);
+}
+
+TEST_CASE("cutoff-fail: pilot pressure stays while the node reports the cut", "[sim][faults][cutoff]") {
+  SimRig rig("thesis-steel-frame.yaml", with_faults({"cutoff-fail@1"}));
+  rig.hal->set_pilot_enabled(false);
+  rig.start();
+  const double vmax = rig.scenario.machine.joints[0].max_velocity;
+  rig.command[0] = vmax;
+  rig.run(600'000);  // 0.85 s: the dump valve still works
+  CHECK_FALSE(rig.sim->truth().pilot_pressure);
+  CHECK_FALSE(rig.last->cutoff_status.pressure);
+  CHECK(rig.sim->truth().velocity[0] == 0.0);
+
+  rig.run(1'500'000);  // 2.35 s: stuck closed since 1 s
+  const hal::SensorSnapshot& s = *rig.last;
+  CHECK(rig.sim->truth().cutoff_state == CutoffState::Cut);
+  CHECK(rig.sim->truth().pilot_pressure);
+  REQUIRE(s.cutoff_status_valid);
+  CHECK(s.cutoff_status.state == CutoffState::Cut);
+  CHECK(s.cutoff_status.reason == CutoffReason::Commanded);
+  CHECK(s.cutoff_status.pressure);  // the switch tells the truth
+  CHECK(s.cutoff.health == Health::Alive);
+  CHECK(rig.sim->truth().velocity[0] > 0.5 * vmax);  // the machine moves with its pilot cut
+}
+
+TEST_CASE("heartbeat-lost:cutoff makes the Hal see the node Missing after the consumer timeout", "[sim][faults][cutoff]") {
+  SimRig rig("thesis-steel-frame.yaml", with_faults({"heartbeat-lost:cutoff@1"}));
+  rig.start();
+  std::int64_t missing_at = 0;
+  rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+    if (missing_at == 0 && s.cutoff.health == Health::Missing) missing_at = s.t_us;
+  };
+  rig.run(1'500'000);
+  REQUIRE(missing_at != 0);
+  const std::int64_t fault_at = SimRig::at_sim_s(1.0);
+  const hal::BusTiming& timing = rig.hal->plan().timing;
+  CHECK(missing_at - fault_at <= timing.device_heartbeat_timeout_us + SimRig::kCycleUs);
+  CHECK(missing_at - fault_at >= timing.device_heartbeat_timeout_us - timing.device_heartbeat_period_us);
+  // Only its heartbeat is lost: its status goes on and the pilot stays enabled.
+  CHECK(rig.last->cutoff_status_valid);
+  CHECK(rig.last->cutoff_status.state == CutoffState::Enabled);
+  CHECK(rig.sim->truth().pilot_pressure);
+  CHECK(rig.last->valve.health == Health::Alive);
+}
+
+TEST_CASE("encoder-offset: the lie appears in the Hal's position as configured, deg or m by joint", "[sim][faults]") {
+  // A constant lie (deg), a growing one from an offset (deg, deg/s), one from zero (m/s).
+  SimRig rig("thesis-steel-frame.yaml", with_faults({"encoder-offset:swing@1,offset=2", "encoder-offset:boom_elevation@1,offset=-1,rate=0.5",
+                                                     "encoder-offset:boom_length@1,rate=0.1"}));
+  REQUIRE(rig.scenario.machine.joints[2].type == planning::JointType::Prismatic);
+  rig.start();
+  const auto error = [&](std::size_t j) { return rig.last->joints[j].position - rig.sim->truth().position[j]; };
+  const double rotary_half_count = 0.5 * 0.001 * kDeg + 1e-12;
+  const double linear_half_count = 0.5e-4 + 1e-12;
+  rig.run(700'000);  // 0.95 s: honest
+  REQUIRE(rig.last->all_joints_valid());
+  for (std::size_t j = 0; j < 4; ++j) CHECK(std::abs(error(j)) <= (j < 2 ? rotary_half_count : linear_half_count));
+
+  const auto lie_at = [&](double offset, double rate) {
+    // The sample was taken at its SYNC, which the Hal sent when the frame's receive time says.
+    const double t_s = static_cast<double>(rig.last->joints[0].t_us - SimRig::kSimZeroUs) * 1e-6;
+    return offset + rate * (t_s - 1.0);
+  };
+  for (const std::int64_t step_us : {500'000, 1'000'000, 1'000'000}) {
+    rig.run(step_us);
+    const hal::SensorSnapshot& s = *rig.last;
+    REQUIRE(s.all_joints_valid());
+    CAPTURE(s.t_us);
+    CHECK(std::abs(error(0) - lie_at(2.0 * kDeg, 0.0)) <= rotary_half_count);
+    CHECK(std::abs(error(1) - lie_at(-1.0 * kDeg, 0.5 * kDeg)) <= rotary_half_count);
+    CHECK(std::abs(error(2) - lie_at(0.0, 0.1)) <= linear_half_count);
+    CHECK(std::abs(error(3)) <= linear_half_count);
+  }
+  // The truth does not move: only the reports do.
+  for (std::size_t j = 0; j < 4; ++j) CHECK(rig.sim->truth().position[j] == rig.scenario.start[static_cast<Eigen::Index>(j)]);
 }
