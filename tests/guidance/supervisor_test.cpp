@@ -278,6 +278,23 @@ TEST_CASE("every transition of the table, with its reason, value and detail", "[
        0, SupervisorState::Fault, TransitionReason::BusOff, PlanRequest::None, -1, "can bus"},
       {"valve fault in ESTOP", SupervisorState::Estop, [](SupervisorInputs& in) { in.sensing.valve = ValveHealth::Faulted; },
        0, SupervisorState::Fault, TransitionReason::ValveFaulted, PlanRequest::None, -1, "valve"},
+      {"cut-off lost in ESTOP", SupervisorState::Estop, [](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Missing; },
+       0, SupervisorState::Fault, TransitionReason::CutoffLost, PlanRequest::None, -1, "cut-off"},
+      {"cut-off cut on its own in HOLD", SupervisorState::Hold,
+       [](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Cut; }, 0, SupervisorState::Fault,
+       TransitionReason::CutoffNotReady, PlanRequest::None, -1, "cut-off"},
+      {"valve counter not obeying while planning", SupervisorState::Planning,
+       [](SupervisorInputs& in) {
+         in.sensing.plausibility = PlausibilityFault::ValveNotObeying;
+         in.sensing.plausibility_joint = -1;
+       },
+       0, SupervisorState::Fault, TransitionReason::ValveNotObeying, PlanRequest::None, -1, "valve"},
+      {"runaway in ESTOP", SupervisorState::Estop,
+       [](SupervisorInputs& in) {
+         in.sensing.plausibility = PlausibilityFault::JointRunaway;
+         in.sensing.plausibility_joint = 2;
+       },
+       0, SupervisorState::Fault, TransitionReason::JointRunaway, PlanRequest::None, 2, "joint 2"},
   };
   for (const TransitionRow& row : rows) {
     SECTION(row.name) {
@@ -573,6 +590,14 @@ struct SensingLoss {
   const char* detail;
 };
 
+//! The plausibility monitor's latched finding naming a joint (-1: the valve's counter).
+std::function<void(SupervisorInputs&)> plausibility(PlausibilityFault fault, int joint) {
+  return [fault, joint](SupervisorInputs& in) {
+    in.sensing.plausibility = fault;
+    in.sensing.plausibility_joint = joint;
+  };
+}
+
 std::vector<SensingLoss> sensing_losses(const SupervisorConfig& config) {
   return {
       {"encoder heartbeat lost", [](SupervisorInputs& in) { in.sensing.joint[1] = DeviceHealth::Missing; },
@@ -599,6 +624,26 @@ std::vector<SensingLoss> sensing_losses(const SupervisorConfig& config) {
        TransitionReason::UwbSilent, -1, "uwb tags"},
       {"watchdog", [](SupervisorInputs& in) { in.watchdog_tripped = true; }, TransitionReason::WatchdogTripped, -1,
        "loop watchdog"},
+      {"cut-off heartbeat lost", [](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Missing; },
+       TransitionReason::CutoffLost, -1, "cut-off"},
+      {"cut-off failed", [](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Failed; },
+       TransitionReason::CutoffFailed, -1, "cut-off"},
+      {"cut-off status stopped", [](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::NotReady; },
+       TransitionReason::CutoffNotReady, -1, "cut-off"},
+      {"pilot cut on its own", [](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Cut; },
+       TransitionReason::CutoffNotReady, -1, "cut-off"},
+      {"encoder stuck", plausibility(PlausibilityFault::EncoderStuck, 2), TransitionReason::EncoderStuck, 2, "joint 2"},
+      {"encoder out of range", plausibility(PlausibilityFault::EncoderOutOfRange, 1), TransitionReason::EncoderImplausible,
+       1, "joint 1"},
+      {"encoder step", plausibility(PlausibilityFault::EncoderStep, 0), TransitionReason::EncoderImplausible, 0,
+       "joint 0"},
+      {"joint not following", plausibility(PlausibilityFault::JointNotFollowing, 3), TransitionReason::JointNotFollowing,
+       3, "joint 3"},
+      {"joint runaway", plausibility(PlausibilityFault::JointRunaway, 1), TransitionReason::JointRunaway, 1, "joint 1"},
+      {"valve spool not obeying", plausibility(PlausibilityFault::ValveNotObeying, 2), TransitionReason::ValveNotObeying,
+       2, "valve 2"},
+      {"valve counter not obeying", plausibility(PlausibilityFault::ValveNotObeying, -1),
+       TransitionReason::ValveNotObeying, -1, "valve"},
   };
 }
 
@@ -657,6 +702,200 @@ TEST_CASE("each loss of sensing at rest is a FAULT at once", "[unit]") {
       CHECK(out.state == SupervisorState::Fault);
       CHECK(out.reason == loss.reason);
     }
+  }
+}
+
+TEST_CASE("INIT waits for the cut-off Ready and names it when it never comes", "[unit]") {
+  SECTION("Missing: not every node heard, so no start") {
+    Machine m;
+    const SupervisorOutput out = m.step([](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Missing; });
+    CHECK(out.state == SupervisorState::Init);
+    CHECK_FALSE(out.start_nodes);
+  }
+  SECTION("NotReady and Cut keep INIT, with the nodes started; Ready completes it") {
+    Machine m;
+    SupervisorOutput out = m.step([](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::NotReady; });
+    CHECK(out.state == SupervisorState::Init);
+    CHECK(out.start_nodes);
+    out = m.step_for(500'000, [](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Cut; });
+    CHECK(out.state == SupervisorState::Init);
+    CHECK_FALSE(out.motion_permitted);
+    CHECK(m.sup.log().empty());
+    out = m.step();
+    CHECK(out.state == SupervisorState::Hold);
+    CHECK(out.reason == TransitionReason::StartupComplete);
+  }
+  struct Never {
+    CutoffHealth cutoff;
+    const char* detail;
+  };
+  for (const Never& never : {Never{CutoffHealth::Cut, "CutoffNotReady"}, Never{CutoffHealth::NotReady, "CutoffNotReady"},
+                             Never{CutoffHealth::Failed, "CutoffFailed"}, Never{CutoffHealth::Missing, "CutoffLost"}}) {
+    CAPTURE(never.detail, static_cast<int>(never.cutoff));
+    Machine m;
+    const auto stuck = [&](SupervisorInputs& in) { in.sensing.cutoff = never.cutoff; };
+    CHECK(m.step_for(test_config().init_timeout_us, stuck).state == SupervisorState::Init);
+    const SupervisorOutput out = m.step(stuck);
+    CHECK(out.state == SupervisorState::Fault);
+    CHECK(out.reason == TransitionReason::StartupTimeout);
+    const auto log = m.drain();
+    REQUIRE(log.size() == 1);
+    CHECK(log[0].value == -1);
+    CHECK(detail(log[0]) == never.detail);
+  }
+}
+
+TEST_CASE("acknowledgement with the cut-off: refused while it is Missing or Failed, accepted when Cut", "[unit]") {
+  const auto ack_with = [](CutoffHealth cutoff) {
+    return [cutoff](SupervisorInputs& in) {
+      in.sensing.cutoff = cutoff;
+      in.commands.acknowledge = true;
+    };
+  };
+  Machine m;
+  drive_to(m, SupervisorState::Hold);
+  REQUIRE(m.step([](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Failed; }).reason ==
+          TransitionReason::CutoffFailed);
+  SupervisorOutput out = m.step(ack_with(CutoffHealth::Failed));
+  CHECK(out.state == SupervisorState::Fault);
+  CHECK(out.acknowledge_outcome == CommandOutcome::RejectedCauseActive);
+  CHECK(out.ack_blocker == TransitionReason::CutoffFailed);
+  out = m.step(ack_with(CutoffHealth::Missing));
+  CHECK(out.state == SupervisorState::Fault);
+  CHECK(out.acknowledge_outcome == CommandOutcome::RejectedCauseActive);
+  CHECK(out.ack_blocker == TransitionReason::CutoffLost);
+  // The valve's own loss is named before the cut-off's.
+  out = m.step([&](SupervisorInputs& in) {
+    ack_with(CutoffHealth::Missing)(in);
+    in.sensing.valve = ValveHealth::Missing;
+  });
+  CHECK(out.ack_blocker == TransitionReason::ValveHeartbeatLost);
+  // Cut (as the loop leaves it in FAULT): a restart through INIT enables it again.
+  out = m.step(ack_with(CutoffHealth::Cut));
+  CHECK(out.state == SupervisorState::Init);
+  CHECK(out.acknowledge_outcome == CommandOutcome::Accepted);
+  CHECK(out.reset_latches);
+  CHECK(m.step([](SupervisorInputs& in) { in.sensing.cutoff = CutoffHealth::Cut; }).state == SupervisorState::Init);
+  CHECK(m.step().state == SupervisorState::Hold);
+
+  Machine n;
+  drive_to(n, SupervisorState::Fault);
+  out = n.step(ack_with(CutoffHealth::NotReady));
+  CHECK(out.state == SupervisorState::Init);
+  CHECK(out.acknowledge_outcome == CommandOutcome::Accepted);
+}
+
+TEST_CASE("a plausibility finding does not block its acknowledgement, INIT waits for it to clear", "[unit]") {
+  for (const PlausibilityFault fault : {PlausibilityFault::JointRunaway, PlausibilityFault::ValveNotObeying,
+                                        PlausibilityFault::EncoderStuck, PlausibilityFault::EncoderStep}) {
+    CAPTURE(to_string(fault));
+    Machine m;
+    drive_to(m, SupervisorState::Hold);
+    const auto finding = plausibility(fault, 1);
+    REQUIRE(m.step(finding).state == SupervisorState::Fault);
+    // The loop keeps the pilot cut in FAULT: the cut-off reports Cut as well.
+    const SupervisorOutput out = m.step([&](SupervisorInputs& in) {
+      finding(in);
+      in.sensing.cutoff = CutoffHealth::Cut;
+      in.commands.acknowledge = true;
+    });
+    CHECK(out.state == SupervisorState::Init);
+    CHECK(out.acknowledge_outcome == CommandOutcome::Accepted);
+    CHECK(out.ack_blocker == TransitionReason::None);
+    CHECK(out.reset_latches);  // the loop resets the monitor with the other latches
+    // Were the finding still latched, INIT would not complete.
+    CHECK(m.step(finding).state == SupervisorState::Init);
+    CHECK(m.step().state == SupervisorState::Hold);
+  }
+}
+
+TEST_CASE("precedence: a plausibility finding wins over a safety cut of the same cycle", "[unit]") {
+  SECTION("with an RCL cut: a stop toward FAULT, not a re-plan") {
+    Machine m;
+    drive_to(m, SupervisorState::Executing);
+    (void)m.drain();
+    SupervisorOutput out = m.step([](SupervisorInputs& in) {
+      moving(in);
+      in.safety.rcl_stage = RclStage::Overload;
+      plausibility(PlausibilityFault::JointRunaway, 1)(in);
+    });
+    CHECK(out.state == SupervisorState::Stopping);
+    CHECK(out.reason == TransitionReason::JointRunaway);
+    out = m.step([](SupervisorInputs& in) {
+      in.safety.rcl_stage = RclStage::Overload;
+      plausibility(PlausibilityFault::JointRunaway, 1)(in);
+    });
+    CHECK(out.state == SupervisorState::Fault);
+    CHECK(out.plan_request == PlanRequest::None);
+    CHECK(m.sup.reason_value() == 1);
+    const auto log = m.drain();
+    REQUIRE(log.size() == 2);
+    for (const TransitionRecord& r : log) {
+      CHECK(r.reason == TransitionReason::JointRunaway);
+      CHECK(r.value == 1);
+    }
+  }
+  SECTION("with the stop zone") {
+    Machine m;
+    drive_to(m, SupervisorState::Executing);
+    const SupervisorOutput out = m.step([](SupervisorInputs& in) {
+      moving(in);
+      in.safety.stop_check = StopCheckStatus::Stop;
+      plausibility(PlausibilityFault::ValveNotObeying, -1)(in);
+    });
+    CHECK(out.state == SupervisorState::Stopping);
+    CHECK(out.reason == TransitionReason::ValveNotObeying);
+  }
+  SECTION("an RCL stop that then finds a plausibility fault becomes a stop toward FAULT") {
+    Machine m;
+    drive_to(m, SupervisorState::Executing);
+    REQUIRE(m.step([](SupervisorInputs& in) {
+               moving(in);
+               in.safety.rcl_stage = RclStage::OutsideChart;
+             }).reason == TransitionReason::RatedCapacityCut);
+    SupervisorOutput out = m.step([](SupervisorInputs& in) {
+      moving(in);
+      plausibility(PlausibilityFault::JointNotFollowing, 3)(in);
+    });
+    CHECK(out.state == SupervisorState::Stopping);
+    CHECK(out.reason == TransitionReason::JointNotFollowing);
+    out = m.step(plausibility(PlausibilityFault::JointNotFollowing, 3));
+    CHECK(out.state == SupervisorState::Fault);
+    CHECK(m.sup.reason_value() == 3);
+  }
+  SECTION("the losses of sensing come first, the cut-off before the encoders, those before the finding") {
+    Machine m;
+    drive_to(m, SupervisorState::Hold);
+    SupervisorOutput out = m.step([](SupervisorInputs& in) {
+      in.sensing.valve = ValveHealth::FailSafe;
+      in.sensing.cutoff = CutoffHealth::Failed;
+      in.sensing.joint[0] = DeviceHealth::Stale;
+      plausibility(PlausibilityFault::JointRunaway, 1)(in);
+    });
+    CHECK(out.reason == TransitionReason::ValveFailSafe);
+    Machine c;
+    drive_to(c, SupervisorState::Hold);
+    out = c.step([](SupervisorInputs& in) {
+      in.sensing.cutoff = CutoffHealth::Cut;
+      in.sensing.joint[0] = DeviceHealth::Stale;
+      plausibility(PlausibilityFault::JointRunaway, 1)(in);
+    });
+    CHECK(out.reason == TransitionReason::CutoffNotReady);
+    Machine e;
+    drive_to(e, SupervisorState::Hold);
+    out = e.step([](SupervisorInputs& in) {
+      in.sensing.joint[2] = DeviceHealth::Faulted;
+      plausibility(PlausibilityFault::EncoderStuck, 0)(in);
+    });
+    CHECK(out.reason == TransitionReason::EncoderFaulted);
+    CHECK(e.sup.reason_value() == 2);
+    Machine u;
+    drive_to(u, SupervisorState::Hold);
+    out = u.step([](SupervisorInputs& in) {
+      in.sensing.uwb_gateway = DeviceHealth::Missing;
+      plausibility(PlausibilityFault::EncoderStuck, 0)(in);
+    });
+    CHECK(out.reason == TransitionReason::EncoderStuck);
   }
 }
 
@@ -958,7 +1197,9 @@ TEST_CASE("names of states, reasons and outcomes", "[unit]") {
   CHECK(std::string(to_string(SupervisorState::Replanning)) == "REPLANNING");
   CHECK(std::string(to_string(TransitionReason::UwbSilent)) == "UwbSilent");
   CHECK(std::string(to_string(CommandOutcome::RejectedLatched)) == "RejectedLatched");
-  for (int r = 0; r <= static_cast<int>(TransitionReason::WatchdogTripped); ++r) {
+  CHECK(std::string(to_string(TransitionReason::EncoderImplausible)) == "EncoderImplausible");
+  CHECK(std::string(to_string(TransitionReason::CutoffNotReady)) == "CutoffNotReady");
+  for (int r = 0; r <= static_cast<int>(TransitionReason::CutoffNotReady); ++r) {
     CAPTURE(r);
     CHECK(std::string(to_string(static_cast<TransitionReason>(r))) != "unknown");
     CHECK(std::strlen(to_string(static_cast<TransitionReason>(r))) < kTransitionDetailChars);
