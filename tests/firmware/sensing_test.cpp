@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
-// The supervisor on the bus (issue 7): the Hal's snapshot mapped onto the supervisor's sensing
-// inputs, against the simulated crane of the thesis site. Start-up reaches HOLD; every loss of
-// sensing the simulator can inject ends in FAULT with its own reason, within the Hal's detection
-// time and a cycle or two.
+// The supervisor on the bus: the Hal's snapshot mapped onto the supervisor's sensing inputs (the
+// cut-off's health row by row) and onto the plausibility monitor's inputs; then, against the
+// simulated crane of the thesis site, start-up reaches HOLD and every loss of sensing the simulator
+// can inject ends in FAULT with its own reason, within the Hal's detection time and a cycle or two.
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "mgc/firmware/sensing.hpp"
 
 using namespace mgc;
+using guidance::CutoffHealth;
 using guidance::DeviceHealth;
 using guidance::SupervisorState;
 using guidance::TransitionReason;
@@ -113,6 +115,119 @@ TEST_CASE("sensing inputs: each Hal health and valve state maps as docs/supervis
   CHECK(firmware::sensing_inputs(s).valve == ValveHealth::Faulted);
   s.valve.health = hal::Health::Missing;
   CHECK(firmware::sensing_inputs(s).valve == ValveHealth::Missing);
+}
+
+TEST_CASE("cut-off health: each row of the mapping in docs/supervisor.md", "[unit]") {
+  using hal::pdo::CutoffReason;
+  using hal::pdo::CutoffState;
+  struct Row {
+    const char* name;
+    hal::Health node;   //!< the Hal's node health (Faulted: an active EMCY, or a fresh status Fault)
+    bool status_fresh;  //!< cutoff_status_valid
+    CutoffState state;
+    CutoffReason reason;
+    bool pressure;
+    CutoffHealth expected;
+  };
+  const Row rows[] = {
+      {"heartbeat lost, whatever the status says", hal::Health::Missing, true, CutoffState::Enabled, CutoffReason::None,
+       true, CutoffHealth::Missing},
+      {"heartbeat lost, no status", hal::Health::Missing, false, CutoffState::Cut, CutoffReason::Commanded, false,
+       CutoffHealth::Missing},
+      {"alive, no fresh status (not started, or its reports stopped)", hal::Health::Alive, false, CutoffState::Enabled,
+       CutoffReason::None, true, CutoffHealth::NotReady},
+      {"no fresh status with an active EMCY", hal::Health::Faulted, false, CutoffState::Cut, CutoffReason::Commanded,
+       false, CutoffHealth::Failed},
+      {"status fault", hal::Health::Faulted, true, CutoffState::Fault, CutoffReason::InternalFault, false,
+       CutoffHealth::Failed},
+      {"status fault, no EMCY", hal::Health::Alive, true, CutoffState::Fault, CutoffReason::InternalFault, false,
+       CutoffHealth::Failed},
+      {"pressure while commanded cut: the dump valve failed", hal::Health::Alive, true, CutoffState::Cut,
+       CutoffReason::Commanded, true, CutoffHealth::Failed},
+      {"pressure while cut after a loss", hal::Health::Faulted, true, CutoffState::Cut, CutoffReason::CommandTimeout,
+       true, CutoffHealth::Failed},
+      {"an EMCY while enabled with pressure", hal::Health::Faulted, true, CutoffState::Enabled, CutoffReason::None, true,
+       CutoffHealth::Failed},
+      {"enabled with pressure", hal::Health::Alive, true, CutoffState::Enabled, CutoffReason::None, true,
+       CutoffHealth::Ready},
+      {"commanded cut, no pressure", hal::Health::Alive, true, CutoffState::Cut, CutoffReason::Commanded, false,
+       CutoffHealth::Cut},
+      {"cut after a loss it signalled, no pressure", hal::Health::Faulted, true, CutoffState::Cut,
+       CutoffReason::ControllerHeartbeatLost, false, CutoffHealth::Cut},
+      {"enabled, no pressure yet", hal::Health::Alive, true, CutoffState::Enabled, CutoffReason::None, false,
+       CutoffHealth::Cut},
+  };
+  for (const Row& row : rows) {
+    CAPTURE(row.name);
+    hal::SensorSnapshot s;
+    s.num_joints = 4;
+    s.cutoff.health = row.node;
+    s.cutoff_status_valid = row.status_fresh;
+    s.cutoff_status = {hal::kCutoffNodeId, row.state, row.reason, row.pressure};
+    CHECK(firmware::cutoff_health(s) == row.expected);
+    CHECK(firmware::sensing_inputs(s).cutoff == row.expected);
+  }
+  // An empty snapshot: never heard, never healthy.
+  CHECK(firmware::cutoff_health(hal::SensorSnapshot{}) == CutoffHealth::Missing);
+}
+
+TEST_CASE("plausibility inputs: the snapshot's positions, spools and counter, drive enabled by valve and pilot", "[unit]") {
+  hal::SensorSnapshot s;
+  s.t_us = 5'000'000;
+  s.num_joints = 3;
+  for (std::size_t j = 0; j < 3; ++j) {
+    s.joints[j].position = 0.5 + static_cast<double>(j);
+    s.joints[j].t_us = 4'990'000 + static_cast<std::int64_t>(j);
+    s.joints[j].valid = j != 1;
+    s.joints[j].updated = j != 2;
+    s.valve_applied_fraction[j] = 0.1 * static_cast<double>(j + 1);
+    s.valve_command_fraction[j] = -0.2 * static_cast<double>(j + 1);
+  }
+  // Beyond num_joints: not the machine's, never copied.
+  s.joints[3].position = 99.0;
+  s.joints[3].valid = true;
+  s.valve_applied_fraction[3] = 0.9;
+  s.valve_status.command_counter = 201;
+  s.valve_commands_sent = 4567;
+  const std::array<double, 2> commanded{0.03, -0.04};  // shorter than the joints: the rest is zero
+
+  guidance::PlausibilityInputs in = firmware::plausibility_inputs(s, commanded, true);
+  CHECK(in.now_us == 5'000'000);
+  for (std::size_t j = 0; j < 3; ++j) {
+    CAPTURE(j);
+    CHECK(in.position[j] == s.joints[j].position);
+    CHECK(in.sample_us[j] == s.joints[j].t_us);
+    CHECK(in.valid[j] == s.joints[j].valid);
+    CHECK(in.updated[j] == s.joints[j].updated);
+    CHECK(in.valve_applied[j] == s.valve_applied_fraction[j]);
+    CHECK(in.valve_commanded[j] == s.valve_command_fraction[j]);
+  }
+  CHECK(in.commanded_velocity[0] == 0.03);
+  CHECK(in.commanded_velocity[1] == -0.04);
+  CHECK(in.commanded_velocity[2] == 0.0);
+  CHECK(in.position[3] == 0.0);
+  CHECK_FALSE(in.valid[3]);
+  CHECK(in.valve_applied[3] == 0.0);
+  CHECK(in.valve_command_counter == 201);
+  CHECK(in.valve_commands_sent == 4567);
+  // The valve is not Active: neither its spools are checked nor can the commands move the machine.
+  CHECK_FALSE(in.valve_active);
+  CHECK_FALSE(in.drive_enabled);
+
+  s.valve.health = hal::Health::Alive;
+  s.valve_status_valid = true;
+  s.valve_status.state = hal::pdo::ValveState::Active;
+  REQUIRE(s.valve_active());
+  in = firmware::plausibility_inputs(s, commanded, true);
+  CHECK(in.valve_active);
+  CHECK(in.drive_enabled);
+  in = firmware::plausibility_inputs(s, commanded, false);  // pilot cut: the valve obeys, nothing moves
+  CHECK(in.valve_active);
+  CHECK_FALSE(in.drive_enabled);
+  s.valve_status_valid = false;  // its status stopped: not Active for the monitor
+  in = firmware::plausibility_inputs(s, commanded, true);
+  CHECK_FALSE(in.valve_active);
+  CHECK_FALSE(in.drive_enabled);
 }
 
 TEST_CASE("supervisor on the bus: start-up reaches HOLD and stays there while the crane is healthy", "[firmware][sim]") {
