@@ -401,7 +401,8 @@ void Simulator::on_cutoff_command(const hal::pdo::CutoffCommand& cmd, std::int64
   cutoff_command_armed_ = true;
   cutoff_last_command_us_ = t_us;
   if (cmd.command == hal::pdo::PilotCommand::Cut) {
-    set_cutoff(CutoffState::Cut, CutoffReason::Commanded);
+    // A latched cut keeps its reason: the controller must still see why only a start re-arms it.
+    if (!cutoff_latched_) set_cutoff(CutoffState::Cut, CutoffReason::Commanded);
   } else if (!cutoff_latched_) {
     set_cutoff(CutoffState::Enabled, CutoffReason::None);
   }

@@ -389,6 +389,13 @@ TEST_CASE("commands that stop cut and latch the pilot with an EMCY, only an NMT 
   CHECK(latched.cutoff_status.state == CutoffState::Cut);
   CHECK(latched.cutoff_status.reason == CutoffReason::CommandTimeout);
   CHECK_FALSE(latched.cutoff_status.pressure);
+  // A controller in FAULT commands the cut: the node still reports why it latched.
+  rig.hal->set_pilot_enabled(false);
+  rig.run(100'000);
+  CHECK(rig.last->cutoff_status.state == CutoffState::Cut);
+  CHECK(rig.last->cutoff_status.reason == CutoffReason::CommandTimeout);
+  CHECK(rig.last->cutoff.emcy_code == hal::canopen::kEmcyRpdoTimeout);
+  rig.hal->set_pilot_enabled(true);
 
   // An NMT start of the cut-off alone re-arms it and resets its EMCY; the enables then take.
   REQUIRE(rig.hal->send_nmt(hal::canopen::NmtCommand::Start, hal::kCutoffNodeId) == hal::Status::Ok);
