@@ -413,6 +413,28 @@ TEST_CASE("commands that stop cut and latch the pilot with an EMCY, only an NMT 
   CHECK(rig.last->cutoff.emcy_count == emcys_before + 2);
 }
 
+TEST_CASE("a dead controller leaves the pilot cut and latched when it comes back", "[sim][hal][cutoff][failsafe]") {
+  SimRig rig("thesis-steel-frame.yaml");
+  rig.start();
+  rig.run(100'000);
+  REQUIRE(rig.sim->truth().pilot_pressure);
+  const std::int64_t dead_at = rig.t_us;
+  std::int64_t cut_at = 0;
+  while (rig.t_us - dead_at < 1'000'000 && cut_at == 0) {
+    rig.run(1'000, false);
+    if (!rig.sim->truth().pilot_pressure) cut_at = rig.t_us;
+  }
+  REQUIRE(cut_at != 0);
+  // The command timeout (50 ms) fires first, well inside the heartbeat timeout (150 ms).
+  CHECK(cut_at - dead_at <= rig.hal->plan().timing.cutoff_command_timeout_us + SimRig::kCycleUs + 1'000);
+  rig.run(1'000'000, false);
+  rig.run(100'000);
+  CHECK_FALSE(rig.sim->truth().pilot_pressure);
+  CHECK(rig.last->cutoff.emcy_code == hal::canopen::kEmcyRpdoTimeout);
+  CHECK(rig.last->cutoff_status.reason == CutoffReason::CommandTimeout);
+  CHECK(rig.sim->counters().pilot_cuts == 1);
+}
+
 TEST_CASE("a lost controller heartbeat with commands still flowing latches the cut with its own EMCY", "[sim][cutoff][failsafe]") {
   SimRig rig("thesis-steel-frame.yaml");
   rig.start();
@@ -487,9 +509,11 @@ TEST_CASE("heartbeat-lost:cutoff makes the Hal see the node Missing after the co
 }
 
 TEST_CASE("encoder-offset: the lie appears in the Hal's position as configured, deg or m by joint", "[sim][faults]") {
-  // A constant lie (deg), a growing one from an offset (deg, deg/s), one from zero (m/s).
-  SimRig rig("thesis-steel-frame.yaml", with_faults({"encoder-offset:swing@1,offset=2", "encoder-offset:boom_elevation@1,offset=-1,rate=0.5",
-                                                     "encoder-offset:boom_length@1,rate=0.1"}));
+  // A constant lie (deg), a growing one from an offset (deg, deg/s), one from zero (m/s), and a
+  // constant one (m) for one second only.
+  SimRig rig("thesis-steel-frame.yaml",
+             with_faults({"encoder-offset:swing@1,offset=2", "encoder-offset:boom_elevation@1,offset=-1,rate=0.5",
+                          "encoder-offset:boom_length@1,rate=0.1", "encoder-offset:cable_length@1+1,offset=0.5"}));
   REQUIRE(rig.scenario.machine.joints[2].type == planning::JointType::Prismatic);
   rig.start();
   const auto error = [&](std::size_t j) { return rig.last->joints[j].position - rig.sim->truth().position[j]; };
@@ -499,12 +523,10 @@ TEST_CASE("encoder-offset: the lie appears in the Hal's position as configured, 
   REQUIRE(rig.last->all_joints_valid());
   for (std::size_t j = 0; j < 4; ++j) CHECK(std::abs(error(j)) <= (j < 2 ? rotary_half_count : linear_half_count));
 
-  const auto lie_at = [&](double offset, double rate) {
-    // The sample was taken at its SYNC, which the Hal sent when the frame's receive time says.
-    const double t_s = static_cast<double>(rig.last->joints[0].t_us - SimRig::kSimZeroUs) * 1e-6;
-    return offset + rate * (t_s - 1.0);
-  };
-  for (const std::int64_t step_us : {500'000, 1'000'000, 1'000'000}) {
+  // The sample was taken at its SYNC, which the Hal sent when the frame's receive time says.
+  const auto sample_s = [&] { return static_cast<double>(rig.last->joints[0].t_us - SimRig::kSimZeroUs) * 1e-6; };
+  const auto lie_at = [&](double offset, double rate) { return offset + rate * (sample_s() - 1.0); };
+  for (const std::int64_t step_us : {500'000, 1'000'000, 1'000'000}) {  // 1.45 s, 2.45 s, 3.45 s
     rig.run(step_us);
     const hal::SensorSnapshot& s = *rig.last;
     REQUIRE(s.all_joints_valid());
@@ -512,7 +534,7 @@ TEST_CASE("encoder-offset: the lie appears in the Hal's position as configured, 
     CHECK(std::abs(error(0) - lie_at(2.0 * kDeg, 0.0)) <= rotary_half_count);
     CHECK(std::abs(error(1) - lie_at(-1.0 * kDeg, 0.5 * kDeg)) <= rotary_half_count);
     CHECK(std::abs(error(2) - lie_at(0.0, 0.1)) <= linear_half_count);
-    CHECK(std::abs(error(3)) <= linear_half_count);
+    CHECK(std::abs(error(3) - (sample_s() < 2.0 ? 0.5 : 0.0)) <= linear_half_count);
   }
   // The truth does not move: only the reports do.
   for (std::size_t j = 0; j < 4; ++j) CHECK(rig.sim->truth().position[j] == rig.scenario.start[static_cast<Eigen::Index>(j)]);
