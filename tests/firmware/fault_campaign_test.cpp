@@ -18,8 +18,7 @@
 #include <mgc/alert_t.hpp>
 
 #include "mgc/firmware/controller.hpp"
-#include "mgc/guidance/rated_capacity.hpp"
-#include "mgc/planning/mobile_crane.hpp"
+#include "mgc/sim/truth_monitor.hpp"
 
 using namespace mgc;
 using test::SimRig;
@@ -36,17 +35,10 @@ struct Lift {
   SimRig rig;
   firmware::Controller controller;
   firmware::ControllerOutput out{};
-  std::unique_ptr<planning::MachineModel> truth_model;
-  std::unique_ptr<planning::CollisionWorld> truth_world;
-  std::unique_ptr<guidance::RatedCapacityLimiter> chart;
-  planning::Kinematics fk;
+  //! The referee: mgc-sim's truth monitor on the simulator's true state, every 50 ms.
+  std::unique_ptr<sim::TruthMonitor> truth;
   bool goal_sent = false;
   std::string log;
-  // The true state's extremes since start.
-  double least_clearance_m = std::numeric_limits<double>::infinity();
-  double least_load_above_ground_m = std::numeric_limits<double>::infinity();
-  double peak_utilisation = 0.0;
-  bool outside_chart = false;
   //! When the supervisor first left EXECUTING for a stop or a fault, and why. [µs on the rig clock]
   std::int64_t stop_us = -1;
   guidance::TransitionReason stop_reason = guidance::TransitionReason::None;
@@ -54,13 +46,9 @@ struct Lift {
   int cutoff_alert_cycles = 0;
 
   explicit Lift(sim::SimConfig config) : rig(kSite, std::move(config), "campaign"), controller(rig.scenario, firmware::ControllerConfig{}) {
-    planning::Scenario bare = rig.scenario;
-    bare.planner.dilation_m = 0.0;
-    truth_model = planning::build_model(bare);
-    truth_world = planning::build_world(bare, *truth_model);
-    const auto* crane = dynamic_cast<const planning::MobileCrane*>(truth_model.get());
-    REQUIRE(crane != nullptr);
-    chart = std::make_unique<guidance::RatedCapacityLimiter>(*crane, guidance::RatedCapacityConfig{});
+    truth = std::make_unique<sim::TruthMonitor>(rig.scenario);
+    REQUIRE(truth->has_ground_clearance());
+    REQUIRE(truth->has_load_chart());
     rig.calibrate_valves();
     rig.on_cycle = [this](const hal::SensorSnapshot& s) { cycle(s); };
   }
@@ -94,31 +82,14 @@ struct Lift {
         ++cutoff_alert_cycles;
       }
     }
-    if (s.cycle % 5 == 0) measure_truth();
+    (void)truth->sample(*rig.sim);
   }
 
-  [[nodiscard]] planning::JointVector true_q() const {
-    planning::JointVector q(controller.num_joints());
-    for (int j = 0; j < controller.num_joints(); ++j) q[j] = rig.sim->truth().position[static_cast<std::size_t>(j)];
-    return q;
-  }
-
-  void measure_truth() {
-    const planning::JointVector q = true_q();
-    for (std::size_t d = 0; d < rig.scenario.dynamic_obstacles.size(); ++d) {
-      truth_world->set_dynamic_pose(static_cast<int>(d), rig.sim->obstacle_pose(d));
-    }
-    least_clearance_m = std::min(least_clearance_m, truth_world->clearance(q).distance_m);
-    truth_model->forward_kinematics(q, fk);
-    const auto& names = truth_model->key_point_names();
-    const auto load = std::find(names.begin(), names.end(), "load_bottom");
-    REQUIRE(load != names.end());
-    least_load_above_ground_m = std::min(least_load_above_ground_m, fk.points[static_cast<std::size_t>(load - names.begin())].z());
-    planning::JointVector still = planning::JointVector::Zero(q.size());
-    const guidance::RatedCapacityResult r = chart->limit_velocity(q, chart->task_load_lb(), still);
-    peak_utilisation = std::max(peak_utilisation, r.utilisation);
-    outside_chart = outside_chart || r.stage == guidance::RclStage::OutsideChart;
-  }
+  // The true state's extremes since start, as the referee measured them.
+  [[nodiscard]] double least_clearance_m() const { return truth->summary().least_clearance.distance_m; }
+  [[nodiscard]] double least_load_above_ground_m() const { return truth->summary().least_ground_clearance_m; }
+  [[nodiscard]] double peak_utilisation() const { return truth->summary().peak_chart_utilisation; }
+  [[nodiscard]] bool outside_chart() const { return truth->summary().samples_outside_chart > 0; }
 
   [[nodiscard]] bool truly_at_rest() const {
     for (int j = 0; j < controller.num_joints(); ++j) {
@@ -171,18 +142,18 @@ Outcome expect_caught(Lift& lift, double fault_s, guidance::TransitionReason rea
   o.detect_s = static_cast<double>(lift.stop_us - SimRig::at_sim_s(fault_s)) * 1e-6;
   o.boom_travel_deg = std::abs(lift.rig.sim->truth().position[kBoom] - boom_at_fault) / kDeg;
   o.swing_travel_deg = std::abs(lift.rig.sim->truth().position[kSwing] - swing_at_fault) / kDeg;
-  CAPTURE(o.detect_s, o.boom_travel_deg, o.swing_travel_deg, lift.least_clearance_m, lift.least_load_above_ground_m,
-          lift.peak_utilisation);
+  CAPTURE(o.detect_s, o.boom_travel_deg, o.swing_travel_deg, lift.least_clearance_m(), lift.least_load_above_ground_m(),
+          lift.peak_utilisation());
   CHECK(lift.stop_reason == reason);
   CHECK(lift.controller.supervisor().state() == guidance::SupervisorState::Fault);
   CHECK(lift.controller.supervisor().reason() == reason);
   CHECK(lift.stop_us >= SimRig::at_sim_s(fault_s));
   CHECK(o.detect_s <= detect_s);
   CHECK(lift.truly_at_rest());
-  CHECK(lift.least_clearance_m > 0.0);
-  CHECK(lift.least_load_above_ground_m > 0.0);
-  CHECK_FALSE(lift.outside_chart);
-  CHECK(lift.peak_utilisation <= 1.0);
+  CHECK(lift.least_clearance_m() > 0.0);
+  CHECK(lift.least_load_above_ground_m() > 0.0);
+  CHECK_FALSE(lift.outside_chart());
+  CHECK(lift.peak_utilisation() <= 1.0);
   // The fault is an alert for the operator that names its device.
   const firmware::GuidanceSnapshot& g = lift.controller.snapshot();
   bool named = false;
@@ -215,8 +186,8 @@ TEST_CASE("campaign: the fault-free lift raises no plausibility fault and keeps 
   CHECK(lift.controller.stats().plausibility_fault == guidance::PlausibilityFault::None);
   CHECK(lift.controller.stats().pilot_cuts == 0);
   CHECK(lift.controller.stats().plausibility_peak_ratio < 0.5);
-  CHECK(lift.least_load_above_ground_m > 0.0);
-  CHECK(lift.peak_utilisation <= 1.0);
+  CHECK(lift.least_load_above_ground_m() > 0.0);
+  CHECK(lift.peak_utilisation() <= 1.0);
   WARN("fault-free lift: plausibility peak ratio " << lift.controller.stats().plausibility_peak_ratio);
 }
 
@@ -249,8 +220,8 @@ TEST_CASE("campaign: a lying boom encoder, by a step and by a drift, is found wi
     CHECK(detect_s <= 0.3);
     CHECK(lift.controller.supervisor().state() == guidance::SupervisorState::Fault);
     CHECK(lift.truly_at_rest());
-    CHECK(lift.least_load_above_ground_m > 0.0);
-    CHECK(lift.peak_utilisation <= 1.0);
+    CHECK(lift.least_load_above_ground_m() > 0.0);
+    CHECK(lift.peak_utilisation() <= 1.0);
     WARN("drift lie: detected " << detect_s << " s, boom travel "
                                 << std::abs(lift.rig.sim->truth().position[kBoom] - boom_at_fault) / kDeg << " deg");
   }
