@@ -76,7 +76,8 @@ void PlausibilityMonitor::raise(PlausibilityFault fault, int joint, std::int64_t
   result_.cut_required = fault == PlausibilityFault::JointRunaway || fault == PlausibilityFault::ValveNotObeying;
 }
 
-void PlausibilityMonitor::update_models(JointState& s, const PlausibilityJoint& joint, double command, double dt_s) noexcept {
+PlausibilityMonitor::Travel PlausibilityMonitor::update_models(JointState& s, const PlausibilityJoint& joint, double command,
+                                                                double dt_s) noexcept {
   // Four first-order models, fast and slow lag each on the largest and the smallest speed the
   // command may give: the true velocity stays between the least and the most of them.
   const double g = config_.gain_tolerance;
@@ -96,15 +97,13 @@ void PlausibilityMonitor::update_models(JointState& s, const PlausibilityJoint& 
     s.v[m] += std::clamp(step, -limit, limit);
   }
   const auto [lo, hi] = std::minmax({s.v[0], s.v[1], s.v[2], s.v[3]});
-  s.lo += lo * dt_s;
-  s.hi += hi * dt_s;
   // The least distance the joint must have covered: only when the whole bracket has one sign.
   const double least_speed = lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
   s.expected_since_change += least_speed * dt_s;
+  return {lo * dt_s, hi * dt_s};
 }
 
-void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs& in, double dt_s) noexcept {
-  (void)dt_s;
+void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs& in) noexcept {
   JointState& s = state_[j];
   const PlausibilityJoint& joint = joints_[j];
   if (!in.valid[j]) {
@@ -236,17 +235,11 @@ const PlausibilityResult& PlausibilityMonitor::update(const PlausibilityInputs& 
   const bool push = in.now_us - last_push_us_ >= push_every_us_;
   for (std::size_t j = 0; j < n_; ++j) {
     JointState& s = state_[j];
-    // The sample read now shows the machine at the previous SYNC: compare it with the model's
-    // travel up to then, before this cycle's step is added.
-    const double lo_before = s.lo;
-    const double hi_before = s.hi;
-    update_models(s, joints_[j], in.drive_enabled ? in.commanded_velocity[j] : 0.0, dt_s);
-    check_samples(j, in, dt_s);
+    const Travel step = update_models(s, joints_[j], in.drive_enabled ? in.commanded_velocity[j] : 0.0, dt_s);
+    check_samples(j, in);
     if (result_.fault != PlausibilityFault::None) return result_;
-    const double lo_now = s.lo;
-    const double hi_now = s.hi;
-    s.lo = lo_before;
-    s.hi = hi_before;
+    // The sample read now shows the machine at the previous SYNC: it is compared with the model's
+    // travel up to then, and this cycle's step is added after.
     check_window(j, in.now_us);
     if (result_.fault != PlausibilityFault::None) return result_;
     if (push && s.have_sample) {
@@ -254,8 +247,8 @@ const PlausibilityResult& PlausibilityMonitor::update(const PlausibilityInputs& 
       s.head = (s.head + 1) % kWindowEntries;
       s.count = std::min(s.count + 1, kWindowEntries);
     }
-    s.lo = lo_now;
-    s.hi = hi_now;
+    s.lo += step.lo;
+    s.hi += step.hi;
   }
   if (push) last_push_us_ = in.now_us;
   check_valve(in, dt_s);

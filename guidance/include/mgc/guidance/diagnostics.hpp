@@ -149,9 +149,16 @@ class PlausibilityMonitor {
     std::int64_t mismatch_since_us = -1;
   };
 
+  //! The bracket's least and most travel over one step. [rad | m]
+  struct Travel {
+    double lo = 0.0;
+    double hi = 0.0;
+  };
+
   void raise(PlausibilityFault fault, int joint, std::int64_t now_us) noexcept;
-  void update_models(JointState& s, const PlausibilityJoint& joint, double command, double dt_s) noexcept;
-  void check_samples(std::size_t j, const PlausibilityInputs& in, double dt_s) noexcept;
+  //! Advances the four models over dt_s on this command; returns the bracket's travel over the step.
+  Travel update_models(JointState& s, const PlausibilityJoint& joint, double command, double dt_s) noexcept;
+  void check_samples(std::size_t j, const PlausibilityInputs& in) noexcept;
   void check_window(std::size_t j, std::int64_t now_us) noexcept;
   void check_valve(const PlausibilityInputs& in, double dt_s) noexcept;
 
