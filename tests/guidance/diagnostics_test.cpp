@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <vector>
@@ -103,7 +104,7 @@ struct Bench {
 
   //! Runs for seconds with command() giving each cycle's command from the time since start.
   template <class Command>
-  const PlausibilityResult& run(double seconds, Command command_at) {
+  const PlausibilityResult& run(double seconds, Command&& command_at) {
     const auto cycles = static_cast<int>(std::lround(seconds * 1e6 / kCycleUs));
     for (int c = 0; c < cycles; ++c) {
       command_at(command);
@@ -124,6 +125,18 @@ double luff(double t_s, const PlausibilityJoint& j) {
   if (t_s < 6.0 + ramp_s) return -v + j.max_acceleration * (t_s - 6.0);
   return 0.0;
 }
+
+//! The luffing move as the loop's command, one cycle per call, with the time it has run. Passed
+//! to Bench::run by reference, so that a run continues where the last one stopped.
+struct Luffing {
+  PlausibilityJoint joint;
+  double t_s = 0.0;
+  double stop_at_s = std::numeric_limits<double>::infinity();  //!< the loop commands zero from here
+  void operator()(std::vector<double>& cmd) {
+    cmd[0] = t_s < stop_at_s ? luff(t_s, joint) : 0.0;
+    t_s += 0.01;
+  }
+};
 
 }  // namespace
 
@@ -147,22 +160,14 @@ TEST_CASE("a slower or faster actuator within the model's bounds is not a fault"
     CAPTURE(lag_s);
     Bench b({boom()});
     b.drives[0].lag_s = lag_s;
-    double t = 0.0;
-    const PlausibilityResult& r = b.run(10.0, [&](std::vector<double>& cmd) {
-      cmd[0] = luff(t, b.joints[0]);
-      t += 0.01;
-    });
+    const PlausibilityResult& r = b.run(10.0, Luffing{b.joints[0]});
     CHECK(r.fault == PlausibilityFault::None);
   }
 }
 
 TEST_CASE("a stuck encoder is found within 0.3 s and under 0.5 deg of travel", "[guidance][diagnostics]") {
   Bench b({boom()});
-  double t = 0.0;
-  const auto command = [&](std::vector<double>& cmd) {
-    cmd[0] = luff(t, b.joints[0]);
-    t += 0.01;
-  };
+  Luffing command{b.joints[0]};
   REQUIRE(b.run(4.0, command).fault == PlausibilityFault::None);
   const double fault_position = b.drives[0].position;
   const std::int64_t fault_us = b.now_us;
@@ -191,11 +196,7 @@ TEST_CASE("a lying encoder: a forged step, a value out of range, a drift at rest
   }
   SECTION("a step of 0.1 deg at full speed is beyond the actuator") {
     Bench b({boom()});
-    double t = 0.0;
-    const auto command = [&](std::vector<double>& cmd) {
-      cmd[0] = luff(t, b.joints[0]);
-      t += 0.01;
-    };
+    Luffing command{b.joints[0]};
     REQUIRE(b.run(3.0, command).fault == PlausibilityFault::None);
     b.lie[0] = 0.1 * kDeg;
     CHECK(b.run(0.1, command).fault == PlausibilityFault::EncoderStep);
@@ -224,11 +225,7 @@ TEST_CASE("a lying encoder: a forged step, a value out of range, a drift at rest
 }
 
 TEST_CASE("a valve that ignores commands: its applied spools, its counter, the joint's motion", "[guidance][diagnostics]") {
-  double t = 0.0;
-  const auto luffing = [&t](std::vector<double>& cmd) {
-    cmd[0] = t < 4.0 ? luff(t, boom()) : 0.0;  // the controller stops at 4 s
-    t += 0.01;
-  };
+  Luffing luffing{boom(), 0.0, 4.0};  // the controller stops at 4 s
   SECTION("the applied spool stays while the command goes to zero") {
     Bench b({boom()});
     REQUIRE(b.run(4.0, luffing).fault == PlausibilityFault::None);
@@ -254,11 +251,7 @@ TEST_CASE("a valve that ignores commands: its applied spools, its counter, the j
 
 TEST_CASE("a jammed joint that the valve drives is not following", "[guidance][diagnostics]") {
   Bench b({boom()});
-  double t = 0.0;
-  const auto command = [&](std::vector<double>& cmd) {
-    cmd[0] = luff(t, b.joints[0]);
-    t += 0.01;
-  };
+  Luffing command{b.joints[0]};
   REQUIRE(b.run(3.0, command).fault == PlausibilityFault::None);
   b.drives[0].jammed = true;
   // The encoder is alive: it flickers by one count, so the value is never frozen.
