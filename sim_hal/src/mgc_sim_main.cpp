@@ -2,6 +2,7 @@
 // mgc-sim: the simulated crane or excavator on a CAN bus, in real time. docs/simulator.md.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <cinttypes>
 #include <csignal>
@@ -11,6 +12,8 @@
 #include <numbers>
 #include <string>
 #include <vector>
+
+#include <sys/resource.h>
 
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/clock.hpp"
@@ -102,6 +105,83 @@ class TruthLog {
   std::ofstream out_;
   const mgc::sim::TruthMonitor* monitor_;
   std::vector<bool> revolute_;
+};
+
+//! The real-time loop's own timing: a SYNC that arrives while an iteration is busy (or the process
+//! is not scheduled) waits for it, and the controller marks a device stale after 3 SYNC periods
+//! without its answer, so the longest gap between two iterations is the figure that matters.
+//! Plain maxima and counters: no allocation in the loop.
+class LoopTiming {
+ public:
+  explicit LoopTiming(std::int64_t sync_period_us) noexcept : sync_period_us_(sync_period_us) {}
+
+  //! At the top of an iteration, at now_us, simulation time t_s.
+  void iteration(std::int64_t now_us, double t_s) noexcept {
+    ++iterations_;
+    if (previous_us_ >= 0) {
+      const std::int64_t gap_us = now_us - previous_us_;
+      if (gap_us > max_gap_us_) {
+        max_gap_us_ = gap_us;
+        max_gap_t_s_ = t_s;
+      }
+      if (gap_us > sync_period_us_) ++gaps_over_sync_;
+    }
+    previous_us_ = now_us;
+  }
+  //! One truth monitor sample took duration_us, at simulation time t_s.
+  void truth_sample(std::int64_t duration_us, double t_s) noexcept {
+    if (samples_++ == 0) first_sample_us_ = duration_us;
+    if (duration_us > max_sample_us_) {
+      max_sample_us_ = duration_us;
+      max_sample_t_s_ = t_s;
+    }
+  }
+  //! One truth log row took duration_us.
+  void log_row(std::int64_t duration_us) noexcept { max_log_us_ = std::max(max_log_us_, duration_us); }
+  //! The loop woke at now_us for an event due at due_us (earlier when a frame arrived).
+  void woke(std::int64_t now_us, std::int64_t due_us) noexcept { max_late_us_ = std::max(max_late_us_, now_us - due_us); }
+  //! The page faults of the whole process from here on are the loop's.
+  void start_faults() noexcept { faults(major_start_, minor_start_); }
+
+  //! One line for the summary: "timing: ...". Allocates (at the end of the run).
+  [[nodiscard]] std::string line() const {
+    long major = 0;
+    long minor = 0;
+    faults(major, minor);
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "timing: %" PRIu64 " loop iterations, longest gap between two %.2f ms at %.2f s, %" PRIu64
+                  " gaps over the %.0f ms SYNC period, wake-up lateness max %.2f ms; truth sample max %.2f ms at %.2f s"
+                  " (first %.2f ms); truth log row max %.2f ms; %ld major and %ld minor page faults in the loop",
+                  iterations_, static_cast<double>(max_gap_us_) * 1e-3, max_gap_t_s_, gaps_over_sync_,
+                  static_cast<double>(sync_period_us_) * 1e-3, static_cast<double>(max_late_us_) * 1e-3,
+                  static_cast<double>(max_sample_us_) * 1e-3, max_sample_t_s_, static_cast<double>(first_sample_us_) * 1e-3,
+                  static_cast<double>(max_log_us_) * 1e-3, major - major_start_, minor - minor_start_);
+    return buf;
+  }
+
+ private:
+  static void faults(long& major, long& minor) noexcept {
+    rusage usage{};
+    if (getrusage(RUSAGE_SELF, &usage) != 0) return;
+    major = usage.ru_majflt;
+    minor = usage.ru_minflt;
+  }
+
+  std::int64_t sync_period_us_;
+  std::int64_t previous_us_ = -1;
+  std::uint64_t iterations_ = 0;
+  std::int64_t max_gap_us_ = 0;
+  double max_gap_t_s_ = 0.0;
+  std::uint64_t gaps_over_sync_ = 0;
+  std::int64_t max_late_us_ = 0;
+  std::uint64_t samples_ = 0;
+  std::int64_t first_sample_us_ = 0;
+  std::int64_t max_sample_us_ = 0;
+  double max_sample_t_s_ = 0.0;
+  std::int64_t max_log_us_ = 0;
+  long major_start_ = 0;
+  long minor_start_ = 0;
 };
 
 }  // namespace
@@ -206,13 +286,21 @@ int main(int argc, char** argv) {
     const std::int64_t start_us = clock.now_us();
     const std::int64_t end_us = duration_s > 0.0 ? start_us + static_cast<std::int64_t>(duration_s * 1e6) : INT64_MAX;
     std::int64_t next_log_us = start_us;
+    LoopTiming timing(sim.plan().timing.sync_period_us);
+    timing.start_faults();
     while (!g_stop.load()) {
       const std::int64_t now_us = clock.now_us();
+      timing.iteration(now_us, sim.time_s());
       sim.step(now_us);
       // Before the log row, so that its clearance columns are never older than a monitor period.
-      if (monitor) (void)monitor->sample(sim);
+      if (monitor) {
+        const std::int64_t before_us = clock.now_us();
+        if (monitor->sample(sim)) timing.truth_sample(clock.now_us() - before_us, sim.time_s());
+      }
       if (log && now_us >= next_log_us) {
+        const std::int64_t before_us = clock.now_us();
         log->write(sim, scenario.dynamic_obstacles.size());
+        timing.log_row(clock.now_us() - before_us);
         next_log_us += log_period_us;
         if (next_log_us <= now_us) next_log_us = now_us + log_period_us;
       }
@@ -220,7 +308,10 @@ int main(int argc, char** argv) {
       std::int64_t next_us = std::min(sim.next_event_us(), end_us);
       if (log) next_us = std::min(next_us, next_log_us);
       const std::int64_t wait_us = next_us - clock.now_us();
-      if (wait_us > 0) (void)opened.bus->wait_readable(wait_us);
+      if (wait_us > 0) {
+        (void)opened.bus->wait_readable(wait_us);
+        timing.woke(clock.now_us(), next_us);
+      }
     }
     if (log) log->flush();
     if (!quiet) {
@@ -232,6 +323,8 @@ int main(int argc, char** argv) {
                   sim.time_s(), c.frames_sent, c.frames_received, c.syncs, c.commands_accepted, c.commands_ignored,
                   c.fail_safe_events, c.tag_fixes, c.tag_fixes_dropped, c.codec.malformed(), c.codec.unknown_id);
     }
+    // With --quiet too: a late answer to a SYNC is the first thing to rule out when mgc faults.
+    std::printf("mgc-sim: %s\n", timing.line().c_str());
     // The run's referee: printed with --quiet too, it is what the demo's summary quotes.
     if (monitor) std::printf("mgc-sim: truth: %s\n", monitor->summary_line().c_str());
   } catch (const std::exception& e) {
