@@ -60,11 +60,25 @@ grep -q ' 0 malformed, 0 unknown ids' "$tmp/healthy.sim" || fail "mgc-sim saw ma
 grep -Eq '^mgc-sim: truth: least clearance 1\.30 m at 0\.00 s \(carrier to frame/.*to the dynamic obstacles 24\.20 m .* 0 of (6[0-9]|7[0-9]) samples below 0\.50 m; ground: least clearance 0\.50 m at 0\.00 s \(load bottom\), of the hook 3\.50 m at 0\.00 s, 0 samples below; load chart: peak utilisation 81\.1 % at 0\.00 s \(boom 20\.00 m at 50\.0 deg\), 0 samples above 100 %, 0 outside the chart$' \
   "$tmp/healthy.sim" || fail "no truth line, or not the start's clearance: $(cat "$tmp/healthy.sim")"
 tail -1 "$tmp/healthy.csv" | grep -Eq ',1\.3000,6\.5[0-9]+,24\.20[0-9]+,0\.50[0-9]+,3\.50[0-9]+,0\.811[0-9]+$' || fail "truth CSV clearance columns: $(tail -1 "$tmp/healthy.csv")"
+grep -Eq '^mgc-sim: timing: [0-9]+ loop iterations, longest gap between two [0-9.]+ ms at [0-9.]+ s, [0-9]+ gaps over the 10 ms SYNC period, wake-up lateness max [0-9.]+ ms; truth sample max [0-9.]+ ms at [0-9.]+ s \(the first, before the nodes boot, [0-9.]+ ms\); truth log row max [0-9.]+ ms; [0-9]+ major and [0-9]+ minor page faults in the loop; memory (locked|not locked)$' \
+  "$tmp/healthy.sim" || fail "no timing line: $(cat "$tmp/healthy.sim")"
 
 run_pair dropout 1 --fault encoder-dropout:cable_length@1 --monitor-period-ms 0
 grep -q 'joint cable_length .* stale' "$tmp/dropout.out" || fail "dropout: cable_length not stale: $(tail -12 "$tmp/dropout.out")"
 grep -q 'joint swing .* alive' "$tmp/dropout.out" || fail "dropout: swing should stay alive"
 grep -q 'truth:' "$tmp/dropout.sim" && fail "--monitor-period-ms 0 still printed the truth line"
 head -1 "$tmp/dropout.csv" | grep -q 'crane-2_yaw_deg$' || fail "--monitor-period-ms 0 still wrote clearance columns"
+
+# --mlock runs whether or not the OS grants it; the timing line says which.
+"$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$base,peer=127.0.0.1:$((base + 1))" --duration 0.5 --mlock --quiet \
+  >"$tmp/mlock.sim" 2>&1 || fail "--mlock: exit $?: $(cat "$tmp/mlock.sim")"
+grep -Eq '^mgc-sim: timing: .*; memory (locked|not locked)$' "$tmp/mlock.sim" || fail "--mlock: $(cat "$tmp/mlock.sim")"
+# A truth log that cannot be written to the end: exit 1, naming the file and the reason.
+"$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$base,peer=127.0.0.1:$((base + 1))" --duration 0.5 --quiet \
+  --truth-csv /dev/full >"$tmp/full.sim" 2>&1
+code=$?
+[ "$code" -eq 1 ] || fail "truth log on /dev/full: exit $code, expected 1: $(cat "$tmp/full.sim")"
+grep -q '^mgc-sim: cannot write the truth log /dev/full: No space left on device$' "$tmp/full.sim" ||
+  fail "truth log on /dev/full: $(cat "$tmp/full.sim")"
 
 finish "mgc-sim CLI"
