@@ -56,7 +56,6 @@ guidance::PlausibilityInputs plausibility_inputs(const hal::SensorSnapshot& s, s
   for (std::size_t j = 0; j < joints; ++j) {
     const hal::JointReading& r = s.joints[j];
     in.position[j] = r.position;
-    in.sample_us[j] = r.t_us;
     in.valid[j] = r.valid;
     in.updated[j] = r.updated;
     in.commanded_velocity[j] = j < commanded_velocity.size() ? commanded_velocity[j] : 0.0;

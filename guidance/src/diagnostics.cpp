@@ -121,10 +121,11 @@ void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs&
     raise(PlausibilityFault::EncoderOutOfRange, static_cast<int>(j), in.now_us);
     return;
   }
+  const std::int64_t previous_cycle_us = previous_cycle_us_;
   if (!s.have_sample) {
     s.have_sample = true;
     s.raw = raw;
-    s.sample_us = in.sample_us[j];
+    s.sample_after_us = previous_cycle_us;
     s.q = raw;
     s.count = 0;
     s.frozen = 0;
@@ -133,7 +134,9 @@ void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs&
   }
   double delta = raw - s.raw;
   if (joint.continuous) delta = std::remainder(delta, kTwoPi);
-  const double interval_s = static_cast<double>(std::max<std::int64_t>(in.sample_us[j] - s.sample_us, 0) + config_.step_time_allowance_us) * 1e-6;
+  // Both samples answer SYNCs sent after the cycle before the one that read the first: however
+  // late the loop ran, they were at most this far apart.
+  const double interval_s = static_cast<double>(std::max<std::int64_t>(in.now_us - s.sample_after_us, 0) + config_.step_time_allowance_us) * 1e-6;
   const double noise = joint.prismatic ? config_.step_noise_m : config_.step_noise_rad;
   if (std::abs(delta) > config_.step_speed_factor * joint.max_velocity * interval_s + noise) {
     raise(PlausibilityFault::EncoderStep, static_cast<int>(j), in.now_us);
@@ -151,7 +154,7 @@ void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs&
     s.expected_since_change = 0.0;
   }
   s.raw = raw;
-  s.sample_us = in.sample_us[j];
+  s.sample_after_us = previous_cycle_us;
   s.q += delta;
 }
 
@@ -230,6 +233,8 @@ void PlausibilityMonitor::check_valve(const PlausibilityInputs& in, double dt_s)
 const PlausibilityResult& PlausibilityMonitor::update(const PlausibilityInputs& in) noexcept {
   if (result_.fault != PlausibilityFault::None) return result_;
   const double dt_s = started_ ? static_cast<double>(std::max<std::int64_t>(in.now_us - last_us_, 0)) * 1e-6 : 0.0;
+  // The cycle before this one (this one on the very first call).
+  previous_cycle_us_ = started_ ? last_us_ : in.now_us;
   started_ = true;
   last_us_ = in.now_us;
   const bool push = in.now_us - last_push_us_ >= push_every_us_;

@@ -196,7 +196,6 @@ TEST_CASE("plausibility inputs: the snapshot's positions, spools and counter, dr
   for (std::size_t j = 0; j < 3; ++j) {
     CAPTURE(j);
     CHECK(in.position[j] == s.joints[j].position);
-    CHECK(in.sample_us[j] == s.joints[j].t_us);
     CHECK(in.valid[j] == s.joints[j].valid);
     CHECK(in.updated[j] == s.joints[j].updated);
     CHECK(in.valve_applied[j] == s.valve_applied_fraction[j]);

@@ -62,6 +62,7 @@ struct Bench {
   std::uint8_t counter = 0;
   std::uint32_t sent = 0;
   bool counter_stalls = false;
+  bool sync_lag = false;  //!< the encoder answers the previous cycle's SYNC
 
   explicit Bench(std::vector<PlausibilityJoint> j, double start = 40.0 * kDeg)
       : joints(std::move(j)), monitor(joints), command(joints.size()), previous(joints.size()),
@@ -74,20 +75,24 @@ struct Bench {
     return std::round(value / q) * q;
   }
 
-  //! One cycle: the drives run 10 ms on the previous command, the encoder samples, the monitor checks.
-  const PlausibilityResult& cycle() {
-    for (int k = 0; k < 10; ++k) {
+  //! One cycle: the drives run period_ms on the previous command, the encoder samples, the monitor
+  //! checks. With sync_lag the sample read is the one taken at the previous cycle's SYNC, as on
+  //! the bus: a late cycle then reads a sample that spans the whole late period.
+  const PlausibilityResult& cycle(int period_ms = 10) {
+    std::vector<double> at_sync(drives.size());
+    for (std::size_t j = 0; j < drives.size(); ++j) at_sync[j] = drives[j].position;
+    for (int k = 0; k < period_ms; ++k) {
       for (std::size_t j = 0; j < drives.size(); ++j) drives[j].step(previous[j], 1e-3);
     }
-    now_us += kCycleUs;
+    now_us += period_ms * 1000;
     PlausibilityInputs in;
     in.now_us = now_us;
     in.drive_enabled = true;
     in.valve_active = true;
     for (std::size_t j = 0; j < drives.size(); ++j) {
-      if (!frozen[j]) encoder[j] = quantise(drives[j].position + lie[j], joints[j].prismatic);
+      const double sampled = sync_lag ? at_sync[j] : drives[j].position;
+      if (!frozen[j]) encoder[j] = quantise(sampled + lie[j], joints[j].prismatic);
       in.position[j] = encoder[j];
-      in.sample_us[j] = now_us - 2'000;
       in.valid[j] = true;
       in.updated[j] = true;
       in.commanded_velocity[j] = previous[j];
@@ -153,6 +158,29 @@ TEST_CASE("healthy motion, stops and reversals raise no plausibility fault", "[g
   // The checks kept a margin: the largest excursion used under two thirds of a threshold.
   CHECK(b.monitor.peak_window_ratio() < 0.67);
   WARN("healthy: peak window ratio " << b.monitor.peak_window_ratio());
+}
+
+TEST_CASE("a loop that wakes 38 ms late and catches up is no encoder step", "[guidance][diagnostics]") {
+  // The swing at 80 % of its speed; every half second a cycle of 48 ms, then one of 2 ms. The
+  // sample read after the short cycle spans the whole late period, while the two reads are 2 ms
+  // apart: the step must be judged against the time between their SYNCs, not between their reads.
+  Bench b({swing()});
+  b.sync_lag = true;
+  for (int c = 0; c < 1000 && b.monitor.result().fault == PlausibilityFault::None; ++c) {
+    b.command[0] = 0.8 * b.joints[0].max_velocity;
+    if (c % 50 == 49) {
+      b.cycle(48);
+      b.command[0] = 0.8 * b.joints[0].max_velocity;
+      b.cycle(2);
+    } else {
+      b.cycle();
+    }
+  }
+  CHECK(b.monitor.result().fault == PlausibilityFault::None);
+  // A forged step is still a step under the same timing.
+  b.lie[0] = 1.0 * kDeg;
+  b.cycle();
+  CHECK(b.monitor.result().fault == PlausibilityFault::EncoderStep);
 }
 
 TEST_CASE("a slower or faster actuator within the model's bounds is not a fault", "[guidance][diagnostics]") {

@@ -95,7 +95,6 @@ TEST_CASE("the plausibility monitor's cycle, its findings and its reset do not a
     for (std::size_t j = 0; j < 2; ++j) {
       in.commanded_velocity[j] = 0.5 * joints[j].max_velocity * u(rng);
       in.position[j] += in.commanded_velocity[j] * 0.01 + (n % 997 == 0 ? 0.3 : 0.0);  // now and then a lie
-      in.sample_us[j] = in.now_us;
       in.valid[j] = n % 301 != 0;
       in.updated[j] = true;
       in.valve_commanded[j] = in.commanded_velocity[j] / joints[j].max_velocity;

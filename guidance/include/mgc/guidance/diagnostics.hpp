@@ -56,10 +56,12 @@ struct PlausibilityConfig {
   //! A value this far beyond an end stop is out of range. [rad | m]
   double range_margin_rad = 0.5 * 3.14159265358979323846 / 180.0;
   double range_margin_m = 0.05;
-  //! A step between samples beyond step_speed_factor × max velocity × (their interval +
-  //! step_time_allowance_us), plus step_noise, cannot be motion. [- | µs | rad | m]
+  //! A step between samples beyond step_speed_factor × max velocity × (the longest their SYNCs can
+  //! be apart + step_time_allowance_us), plus step_noise, cannot be motion. The SYNCs are bounded by
+  //! the loop's own cycle times, not by the receive stamps, which a late cycle squeezes together
+  //! (docs/diagnostics.md). [- | µs | rad | m]
   double step_speed_factor = 1.5;
-  std::int64_t step_time_allowance_us = 20'000;
+  std::int64_t step_time_allowance_us = 10'000;
   double step_noise_rad = 0.005 * 3.14159265358979323846 / 180.0;
   double step_noise_m = 0.0005;
   //! An encoder repeating its value over this many samples while the model's least travel since the
@@ -80,7 +82,6 @@ struct PlausibilityConfig {
 struct PlausibilityInputs {
   std::int64_t now_us = 0;
   std::array<double, kMaxJoints> position{};       //!< last decoded sample [rad | m]
-  std::array<std::int64_t, kMaxJoints> sample_us{};  //!< its receive time [µs]
   std::array<bool, kMaxJoints> valid{};            //!< the Hal's JointReading::valid
   std::array<bool, kMaxJoints> updated{};          //!< a new sample this cycle
   //! The velocity the loop commanded in its previous cycle, which the valve applies now. [rad/s | m/s]
@@ -134,7 +135,9 @@ class PlausibilityMonitor {
   struct JointState {
     bool have_sample = false;
     double raw = 0.0;                 //!< last sample as decoded [rad | m]
-    std::int64_t sample_us = 0;
+    //! The cycle before the one that read it: its SYNC was sent no earlier (a sample answers the
+    //! SYNC of the cycle that reads it or of the one before). [µs]
+    std::int64_t sample_after_us = 0;
     double q = 0.0;                   //!< unwrapped measured position [rad | m]
     std::array<double, 4> v{};        //!< the bracketing models' velocities [rad/s | m/s]
     double lo = 0.0;                  //!< integral of the bracket's lower velocity [rad | m]
@@ -169,6 +172,7 @@ class PlausibilityMonitor {
   PlausibilityResult result_{};
   bool started_ = false;
   std::int64_t last_us_ = 0;
+  std::int64_t previous_cycle_us_ = 0;  //!< the cycle before the one being checked [µs]
   std::int64_t push_every_us_ = 0;
   std::int64_t last_push_us_ = 0;
   bool counter_known_ = false;
