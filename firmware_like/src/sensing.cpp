@@ -63,7 +63,12 @@ guidance::PlausibilityInputs plausibility_inputs(const hal::SensorSnapshot& s, s
     in.valve_commanded[j] = s.valve_command_fraction[j];
   }
   in.valve_active = s.valve_active();
-  in.drive_enabled = in.valve_active && pilot_enabled;
+  // The commands move the machine unless pilot pressure is off or the valve says it does not
+  // follow them. A valve whose reports are late or missing is taken at its commands: assuming it
+  // stopped would read a machine that runs down its commanded stop as a runaway.
+  const bool status_idle = s.valve_status_valid && s.valve_status.state != hal::pdo::ValveState::Active;
+  const bool heartbeat_idle = s.valve.health != hal::Health::Missing && s.valve.nmt_state != hal::canopen::NmtState::Operational;
+  in.drive_enabled = pilot_enabled && !status_idle && !heartbeat_idle;
   in.valve_command_counter = s.valve_status.command_counter;
   in.valve_commands_sent = s.valve_commands_sent;
   return in;

@@ -192,21 +192,23 @@ void PlausibilityMonitor::check_window(std::size_t j, std::int64_t now_us) noexc
 }
 
 void PlausibilityMonitor::check_valve(const PlausibilityInputs& in, double dt_s) noexcept {
-  if (!in.valve_active) {
-    counter_known_ = false;
-    for (std::size_t j = 0; j < n_; ++j) {
-      state_[j].spool_model = 0.0;
-      state_[j].spool_model_prev = 0.0;
-      state_[j].mismatch_since_us = -1;
-    }
-    return;
-  }
+  // The model follows every command sent, whether or not the valve's reports arrive: a gap in its
+  // status (a stalled node, a late bus) must not restart the model from zero, or the first fresh
+  // report after it would read as a valve that does not follow.
   const double ramp = config_.valve_ramp_per_s * dt_s;
   for (std::size_t j = 0; j < n_; ++j) {
     JointState& s = state_[j];
     // The report answers the previous cycle's SYNC: it may show the command one step behind.
     s.spool_model_prev = s.spool_model;
     s.spool_model += std::clamp(in.valve_commanded[j] - s.spool_model, -ramp, ramp);
+  }
+  if (!in.valve_active) {
+    counter_known_ = false;
+    for (std::size_t j = 0; j < n_; ++j) state_[j].mismatch_since_us = -1;
+    return;
+  }
+  for (std::size_t j = 0; j < n_; ++j) {
+    JointState& s = state_[j];
     const double error = std::min(std::abs(in.valve_applied[j] - s.spool_model), std::abs(in.valve_applied[j] - s.spool_model_prev));
     if (error <= config_.valve_tolerance) {
       s.mismatch_since_us = -1;

@@ -209,11 +209,13 @@ TEST_CASE("plausibility inputs: the snapshot's positions, spools and counter, dr
   CHECK(in.valve_applied[3] == 0.0);
   CHECK(in.valve_command_counter == 201);
   CHECK(in.valve_commands_sent == 4567);
-  // The valve is not Active: neither its spools are checked nor can the commands move the machine.
+  // Nothing heard from the valve: its spools are not checked, and the machine is taken at its
+  // commands (a stop run down as commanded is no runaway).
   CHECK_FALSE(in.valve_active);
-  CHECK_FALSE(in.drive_enabled);
+  CHECK(in.drive_enabled);
 
   s.valve.health = hal::Health::Alive;
+  s.valve.nmt_state = hal::canopen::NmtState::Operational;
   s.valve_status_valid = true;
   s.valve_status.state = hal::pdo::ValveState::Active;
   REQUIRE(s.valve_active());
@@ -223,9 +225,19 @@ TEST_CASE("plausibility inputs: the snapshot's positions, spools and counter, dr
   in = firmware::plausibility_inputs(s, commanded, false);  // pilot cut: the valve obeys, nothing moves
   CHECK(in.valve_active);
   CHECK_FALSE(in.drive_enabled);
-  s.valve_status_valid = false;  // its status stopped: not Active for the monitor
+  s.valve_status_valid = false;  // its status stopped: not checked, still taken at its commands
   in = firmware::plausibility_inputs(s, commanded, true);
   CHECK_FALSE(in.valve_active);
+  CHECK(in.drive_enabled);
+  s.valve_status_valid = true;  // it says it neutralised: the commands move nothing
+  s.valve_status.state = hal::pdo::ValveState::FailSafe;
+  s.valve_status.reason = hal::pdo::ValveReason::CommandTimeout;
+  in = firmware::plausibility_inputs(s, commanded, true);
+  CHECK_FALSE(in.drive_enabled);
+  s.valve_status.state = hal::pdo::ValveState::Active;  // its heartbeat says it left Operational
+  s.valve_status.reason = hal::pdo::ValveReason::None;
+  s.valve.nmt_state = hal::canopen::NmtState::PreOperational;
+  in = firmware::plausibility_inputs(s, commanded, true);
   CHECK_FALSE(in.drive_enabled);
 }
 

@@ -63,6 +63,7 @@ struct Bench {
   std::uint32_t sent = 0;
   bool counter_stalls = false;
   bool sync_lag = false;  //!< the encoder answers the previous cycle's SYNC
+  bool valve_reports = true;  //!< the valve's status arrives fresh (false: a gap in its reports)
 
   explicit Bench(std::vector<PlausibilityJoint> j, double start = 40.0 * kDeg)
       : joints(std::move(j)), monitor(joints), command(joints.size()), previous(joints.size()),
@@ -87,8 +88,8 @@ struct Bench {
     now_us += period_ms * 1000;
     PlausibilityInputs in;
     in.now_us = now_us;
-    in.drive_enabled = true;
-    in.valve_active = true;
+    in.drive_enabled = true;  // a valve whose reports are late is taken at its commands
+    in.valve_active = valve_reports;
     for (std::size_t j = 0; j < drives.size(); ++j) {
       const double sampled = sync_lag ? at_sync[j] : drives[j].position;
       if (!frozen[j]) encoder[j] = quantise(sampled + lie[j], joints[j].prismatic);
@@ -181,6 +182,18 @@ TEST_CASE("a loop that wakes 38 ms late and catches up is no encoder step", "[gu
   b.lie[0] = 1.0 * kDeg;
   b.cycle();
   CHECK(b.monitor.result().fault == PlausibilityFault::EncoderStep);
+}
+
+TEST_CASE("a gap of 60 ms in the valve's reports while the boom runs is no valve that does not obey", "[guidance][diagnostics]") {
+  // A stalled valve node (or bus) sends no status for 60 ms; the valve keeps its spool on the
+  // command. Its first fresh report after the gap shows the spool where the commands put it.
+  Bench b({boom()});
+  Luffing command{b.joints[0]};
+  REQUIRE(b.run(3.0, command).fault == PlausibilityFault::None);
+  b.valve_reports = false;
+  REQUIRE(b.run(0.06, command).fault == PlausibilityFault::None);
+  b.valve_reports = true;
+  CHECK(b.run(1.0, command).fault == PlausibilityFault::None);
 }
 
 TEST_CASE("a slower or faster actuator within the model's bounds is not a fault", "[guidance][diagnostics]") {

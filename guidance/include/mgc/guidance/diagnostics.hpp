@@ -86,8 +86,9 @@ struct PlausibilityInputs {
   std::array<bool, kMaxJoints> updated{};          //!< a new sample this cycle
   //! The velocity the loop commanded in its previous cycle, which the valve applies now. [rad/s | m/s]
   std::array<double, kMaxJoints> commanded_velocity{};
-  //! The commands can move the machine: the valve reports Active and pilot pressure is enabled.
-  //! Otherwise the model's input is zero.
+  //! The commands can move the machine: pilot pressure is on and the valve does not say it is
+  //! idle (a valve whose reports are late is taken at its commands). Otherwise the model's input
+  //! is zero.
   bool drive_enabled = false;
   //! The valve node reports Active with a fresh status: its applied spools and counter are checked.
   bool valve_active = false;
