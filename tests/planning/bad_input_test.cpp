@@ -48,12 +48,6 @@ std::string scenario_text() {
          "  seed: 1\n";
 }
 
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  const auto pos = text.find(from);
-  REQUIRE(pos != std::string::npos);
-  return text.replace(pos, from.size(), to);
-}
-
 struct Expect {
   int line;
   std::string field;
@@ -90,72 +84,72 @@ TEST_CASE("the base scenario of these tests is valid", "[unit]") {
 }
 
 TEST_CASE("bad input: missing field", "[unit]") {
-  expect_error(replace(scenario_text(), "  counterweight_lb: 18000\n", ""), {6, "task.counterweight_lb", "missing field"});
+  expect_error(mgc::test::replace_first(scenario_text(), "  counterweight_lb: 18000\n", ""), {6, "task.counterweight_lb", "missing field"});
 }
 
 TEST_CASE("bad input: unknown field", "[unit]") {
-  expect_error(replace(scenario_text(), "  sling_length_m: 1\n", "  sling_length_m: 1\n  slingg: 2\n"),
+  expect_error(mgc::test::replace_first(scenario_text(), "  sling_length_m: 1\n", "  sling_length_m: 1\n  slingg: 2\n"),
                {13, "task.slingg", "unknown field"});
 }
 
 TEST_CASE("bad input: duplicate field", "[unit]") {
-  expect_error(replace(scenario_text(), "  sling_length_m: 1\n", "  sling_length_m: 1\n  sling_length_m: 2\n"),
+  expect_error(mgc::test::replace_first(scenario_text(), "  sling_length_m: 1\n", "  sling_length_m: 1\n  sling_length_m: 2\n"),
                {13, "task.sling_length_m", "duplicate field"});
 }
 
 TEST_CASE("bad input: wrong type", "[unit]") {
-  expect_error(replace(scenario_text(), "load_lb: 20000", "load_lb: heavy"), {7, "task.load_lb", "expected a number, got 'heavy'"});
-  expect_error(replace(scenario_text(), "size_m: [2, 2, 2]", "size_m: 2"), {16, "obstacles[0].size_m", "expected a list of 3 positive numbers"});
-  expect_error(replace(scenario_text(), "type: box", "type: sphere"), {15, "obstacles[0].type", "expected one of box, cylinder, capsule, mesh, steel_frame"});
+  expect_error(mgc::test::replace_first(scenario_text(), "load_lb: 20000", "load_lb: heavy"), {7, "task.load_lb", "expected a number, got 'heavy'"});
+  expect_error(mgc::test::replace_first(scenario_text(), "size_m: [2, 2, 2]", "size_m: 2"), {16, "obstacles[0].size_m", "expected a list of 3 positive numbers"});
+  expect_error(mgc::test::replace_first(scenario_text(), "type: box", "type: sphere"), {15, "obstacles[0].type", "expected one of box, cylinder, capsule, mesh, steel_frame"});
 }
 
 TEST_CASE("bad input: NaN and infinity", "[unit]") {
-  expect_error(replace(scenario_text(), "boom_length_m: 20\n  cable", "boom_length_m: .nan\n  cable"),
+  expect_error(mgc::test::replace_first(scenario_text(), "boom_length_m: 20\n  cable", "boom_length_m: .nan\n  cable"),
                {21, "start.boom_length_m", "expected a finite number, got '.nan'"});
-  expect_error(replace(scenario_text(), "position_m: [0, 15, 1]", "position_m: [0, .inf, 1]"),
+  expect_error(mgc::test::replace_first(scenario_text(), "position_m: [0, 15, 1]", "position_m: [0, .inf, 1]"),
                {17, "obstacles[0].position_m[1]", "expected a finite number"});
 }
 
 TEST_CASE("bad input: non-positive sizes", "[unit]") {
-  expect_error(replace(scenario_text(), "size_m: [2, 2, 2]", "size_m: [2, -2, 2]"), {16, "obstacles[0].size_m[1]", "expected a positive number, got '-2'"});
+  expect_error(mgc::test::replace_first(scenario_text(), "size_m: [2, 2, 2]", "size_m: [2, -2, 2]"), {16, "obstacles[0].size_m[1]", "expected a positive number, got '-2'"});
 }
 
 TEST_CASE("bad input: load above every chart entry", "[unit]") {
-  expect_error(replace(scenario_text(), "load_lb: 20000", "load_lb: 150000"), {7, "task.load_lb", "a load the chart rates (at most 140000 lb"});
+  expect_error(mgc::test::replace_first(scenario_text(), "load_lb: 20000", "load_lb: 150000"), {7, "task.load_lb", "a load the chart rates (at most 140000 lb"});
   // The capacity reduction counts: 130,000 lb + 10 % is above 140,000.
-  expect_error(replace(scenario_text(), "load_lb: 20000", "load_lb: 130000\n  capacity_reduction_pct: 10"),
+  expect_error(mgc::test::replace_first(scenario_text(), "load_lb: 20000", "load_lb: 130000\n  capacity_reduction_pct: 10"),
                {7, "task.load_lb", "this is 143000 lb"});
 }
 
 TEST_CASE("bad input: rigging the chart does not cover", "[unit]") {
-  expect_error(replace(scenario_text(), "outriggers: fully_extended", "outriggers: retracted"),
+  expect_error(mgc::test::replace_first(scenario_text(), "outriggers: fully_extended", "outriggers: retracted"),
                {8, "task.outriggers", "expected 'fully_extended', the rigging of the load chart"});
 }
 
 TEST_CASE("bad input: start or goal outside the joint ranges", "[unit]") {
-  expect_error(replace(scenario_text(), "boom_length_m: 20\n  cable", "boom_length_m: 40\n  cable"),
+  expect_error(mgc::test::replace_first(scenario_text(), "boom_length_m: 20\n  cable", "boom_length_m: 40\n  cable"),
                {21, "start.boom_length_m", "expected a value within the joint range [10.9728, 33.528] m"});
-  expect_error(replace(scenario_text(), "  swing_deg: 180\n  boom_elevation_deg: 45", "  swing_deg: 180\n  boom_elevation_deg: 85"),
+  expect_error(mgc::test::replace_first(scenario_text(), "  swing_deg: 180\n  boom_elevation_deg: 45", "  swing_deg: 180\n  boom_elevation_deg: 85"),
                {25, "goal.boom_elevation_deg", "[0, 80] deg"});
 }
 
 TEST_CASE("bad input: start in collision names the obstacle", "[unit]") {
   // Swing 90 deg puts the load (radius 14.1 m, 8.1 m up) ... lower it onto the block at (0, 15).
-  expect_error(replace(scenario_text(), "  swing_deg: 0\n  boom_elevation_deg: 45\n  boom_length_m: 20\n  cable_length_m: 5",
+  expect_error(mgc::test::replace_first(scenario_text(), "  swing_deg: 0\n  boom_elevation_deg: 45\n  boom_length_m: 20\n  cable_length_m: 5",
                        "  swing_deg: 90\n  boom_elevation_deg: 45\n  boom_length_m: 20\n  cable_length_m: 13"),
                {18, "start", "infeasible: collision: load hits obstacle 'block'"});
 }
 
 TEST_CASE("bad input: goal against the load chart names the chart row", "[unit]") {
   // 20 m boom at 35 deg: below the 70-ft row's 39.5 deg minimum for 20,000 lb.
-  expect_error(replace(scenario_text(), "  swing_deg: 180\n  boom_elevation_deg: 45", "  swing_deg: 180\n  boom_elevation_deg: 35"),
+  expect_error(mgc::test::replace_first(scenario_text(), "  swing_deg: 180\n  boom_elevation_deg: 45", "  swing_deg: 180\n  boom_elevation_deg: 35"),
                {23, "goal", "load-chart row 70 ft boom, radius 50 ft): value 35 deg, limit 39.5 deg"});
 }
 
 TEST_CASE("bad input: inverted range in a machine file", "[unit]") {
   std::ifstream in(machine_path());
   std::string machine((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  machine = replace(machine, "range_deg: [0, 80]", "range_deg: [80, 0]");
+  machine = mgc::test::replace_first(machine, "range_deg: [0, 80]", "range_deg: [80, 0]");
   TempFile bad_machine("machine.yaml", machine);
   try {
     (void)io::load_machine(bad_machine.path());
@@ -170,7 +164,7 @@ TEST_CASE("bad input: inverted range in a machine file", "[unit]") {
 TEST_CASE("bad input: a load chart row of the wrong length", "[unit]") {
   std::ifstream in(machine_path());
   std::string machine((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  machine = replace(machine, "[140000, 110500, 69800, 78750, 59800, 27600, ~,", "[140000, 110500, 69800, 78750, 59800, 27600,");
+  machine = mgc::test::replace_first(machine, "[140000, 110500, 69800, 78750, 59800, 27600, ~,", "[140000, 110500, 69800, 78750, 59800, 27600,");
   TempFile bad_machine("machine.yaml", machine);
   try {
     (void)io::load_machine(bad_machine.path());
@@ -182,10 +176,10 @@ TEST_CASE("bad input: a load chart row of the wrong length", "[unit]") {
 }
 
 TEST_CASE("bad input: machine file missing, YAML syntax error, mesh index", "[unit]") {
-  expect_error(replace(scenario_text(), "machine: " + machine_path(), "machine: nowhere.yaml"),
+  expect_error(mgc::test::replace_first(scenario_text(), "machine: " + machine_path(), "machine: nowhere.yaml"),
                {2, "machine", "does not exist"});
-  expect_error(replace(scenario_text(), "  yaw_deg: 0\n", "  yaw_deg: [0\n"), {6, "", "YAML syntax error"});
-  expect_error(replace(scenario_text(), "    type: box\n    size_m: [2, 2, 2]\n",
+  expect_error(mgc::test::replace_first(scenario_text(), "  yaw_deg: 0\n", "  yaw_deg: [0\n"), {6, "", "YAML syntax error"});
+  expect_error(mgc::test::replace_first(scenario_text(), "    type: box\n    size_m: [2, 2, 2]\n",
                        "    type: mesh\n    vertices_m: [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\n    triangles: [[0, 1, 3]]\n"),
                {17, "obstacles[0].triangles[0][2]", "expected an integer in [0, 2]"});
 }
@@ -199,7 +193,7 @@ TEST_CASE("bad input: keyframes must move forward in time", "[unit]") {
       "      - {t_s: 5, position_m: [0, -30, 0], yaw_deg: 0}\n"
       "      - {t_s: 5, position_m: [0, -20, 0], yaw_deg: 0}\n"
       "start:\n";
-  expect_error(replace(scenario_text(), "start:\n", dynamic), {23, "dynamic_obstacles[0].motion[1].t_s", "a time after the previous key's 5 s"});
+  expect_error(mgc::test::replace_first(scenario_text(), "start:\n", dynamic), {23, "dynamic_obstacles[0].motion[1].t_s", "a time after the previous key's 5 s"});
 }
 
 TEST_CASE("bad input: UWB tag ids are 0..255 and unique", "[unit]") {
@@ -212,11 +206,11 @@ TEST_CASE("bad input: UWB tag ids are 0..255 and unique", "[unit]") {
       "      - {id: 4, position_m: [0, 0, 3]}\n"
       "      - {id: ID, position_m: [3, 0, 3]}\n"
       "start:\n";
-  expect_error(replace(scenario_text(), "start:\n", replace(dynamic, "ID", "4")),
+  expect_error(mgc::test::replace_first(scenario_text(), "start:\n", mgc::test::replace_first(dynamic, "ID", "4")),
                {24, "dynamic_obstacles[0].tags[1].id", "a tag id not used by another tag"});
-  expect_error(replace(scenario_text(), "start:\n", replace(dynamic, "ID", "256")),
+  expect_error(mgc::test::replace_first(scenario_text(), "start:\n", mgc::test::replace_first(dynamic, "ID", "256")),
                {24, "dynamic_obstacles[0].tags[1].id", "an integer"});
-  TempFile file("scenario.yaml", replace(scenario_text(), "start:\n", replace(dynamic, "ID", "5")));
+  TempFile file("scenario.yaml", mgc::test::replace_first(scenario_text(), "start:\n", mgc::test::replace_first(dynamic, "ID", "5")));
   const Scenario s = io::load_scenario(file.path());
   REQUIRE(s.dynamic_obstacles[0].tags.size() == 2);
   CHECK(s.dynamic_obstacles[0].tags[1].id == 5);

@@ -101,12 +101,6 @@ std::string scenario_text(const std::string& machine = machine_path()) {
          "  seed: 1\n";
 }
 
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  const auto pos = text.find(from);
-  REQUIRE(pos != std::string::npos);
-  return text.replace(pos, from.size(), to);
-}
-
 // The message contract every InputError keeps, whatever the input.
 void check_one_bounded_line(const std::string& what) {
   CAPTURE(what.substr(0, 400));
@@ -245,7 +239,7 @@ TEST_CASE("hardening: file size and path length are bounded", "[unit]") {
 TEST_CASE("hardening: coordinates beyond the site extent are refused", "[unit]") {
   TempDir dir;
   const auto position = [&](const std::string& y) {
-    return dir.write("scenario.yaml", replace(scenario_text(), "position_m: [0, 15, 1]", "position_m: [0, " + y + ", 1]"));
+    return dir.write("scenario.yaml", mgc::test::replace_first(scenario_text(), "position_m: [0, 15, 1]", "position_m: [0, " + y + ", 1]"));
   };
   for (const char* huge : {"1e200", "-1e308", "1e100", "10000.5"}) {
     CAPTURE(huge);
@@ -264,16 +258,16 @@ TEST_CASE("hardening: coordinates beyond the site extent are refused", "[unit]")
       const auto e = expect_error(file, file.string() + ":" + std::to_string(line) + ": " + field + ": ");
       CHECK(contains(e.what(), expected));
     };
-    refused(replace(scenario_text(), "size_m: [2, 2, 2]", "size_m: [2, 1e200, 2]"), 16, "obstacles[0].size_m[1]",
+    refused(mgc::test::replace_first(scenario_text(), "size_m: [2, 2, 2]", "size_m: [2, 1e200, 2]"), 16, "obstacles[0].size_m[1]",
             "a length of at most 10000 m");
-    refused(replace(scenario_text(), "origin_m: [30, -5, 0]", "origin_m: [-1e308, -5, 0]"), 20, "obstacles[1].origin_m[0]",
+    refused(mgc::test::replace_first(scenario_text(), "origin_m: [30, -5, 0]", "origin_m: [-1e308, -5, 0]"), 20, "obstacles[1].origin_m[0]",
             "site extent");
-    refused(replace(scenario_text(), "bay_size_m: [6, 6]", "bay_size_m: [6000, 6]"), 22, "obstacles[1].bay_size_m",
+    refused(mgc::test::replace_first(scenario_text(), "bay_size_m: [6, 6]", "bay_size_m: [6000, 6]"), 22, "obstacles[1].bay_size_m",
             "the frame is 12000 m by 6 m");
-    refused(replace(scenario_text(), "  position_m: [0, 0, 0]\n", "  position_m: [0, 0, 1e100]\n"), 4, "base.position_m[2]",
+    refused(mgc::test::replace_first(scenario_text(), "  position_m: [0, 0, 0]\n", "  position_m: [0, 0, 1e100]\n"), 4, "base.position_m[2]",
             "site extent");
-    refused(replace(scenario_text(), "  yaw_deg: 0\n", "  yaw_deg: 1e300\n"), 5, "base.yaw_deg", "an angle within [-3600, 3600] deg");
-    refused(replace(scenario_text(), "sling_length_m: 1", "sling_length_m: 1e200"), 12, "task.sling_length_m", "at most 10000 m");
+    refused(mgc::test::replace_first(scenario_text(), "  yaw_deg: 0\n", "  yaw_deg: 1e300\n"), 5, "base.yaw_deg", "an angle within [-3600, 3600] deg");
+    refused(mgc::test::replace_first(scenario_text(), "sling_length_m: 1", "sling_length_m: 1e200"), 12, "task.sling_length_m", "at most 10000 m");
     refused(scenario_text() + "envelope:\n  points: [hook]\n  walls:\n    - {normal: [1, 0, 0], offset_m: 1e200}\n", 42,
             "envelope.walls[0].offset_m", "site extent");
     refused(scenario_text() + "envelope:\n  points: [hook]\n  height_ceiling_m: -1e308\n", 41, "envelope.height_ceiling_m",
@@ -287,8 +281,8 @@ TEST_CASE("hardening: coordinates beyond the site extent are refused", "[unit]")
         "      - {t_s: T, position_m: [0, -20, 0], yaw_deg: 0}\n"
         "start:\n";
     const auto truck = [&](const char* roll, const char* x, const char* yaw, const char* t) {
-      return replace(scenario_text(), "start:\n",
-                     replace(replace(replace(replace(dynamic, "ROLL", roll), "X", x), "YAW", yaw), "T", t));
+      return mgc::test::replace_first(scenario_text(), "start:\n",
+                     mgc::test::replace_first(mgc::test::replace_first(mgc::test::replace_first(mgc::test::replace_first(dynamic, "ROLL", roll), "X", x), "YAW", yaw), "T", t));
     };
     refused(truck("0", "1e200", "0", "5"), 31, "dynamic_obstacles[0].motion[0].position_m[0]", "site extent");
     refused(truck("0", "0", "-1e308", "5"), 31, "dynamic_obstacles[0].motion[0].yaw_deg", "an angle within");
@@ -307,7 +301,7 @@ TEST_CASE("hardening: names are at most 64 characters", "[unit]") {
   TempDir dir;
   SECTION("a steel frame with a 2 MB name is refused before any member is made") {
     const std::string name(2 << 20, 'n');
-    const fs::path file = dir.write("scenario.yaml", replace(scenario_text(), "  - name: frame\n", "  - name: " + name + "\n"));
+    const fs::path file = dir.write("scenario.yaml", mgc::test::replace_first(scenario_text(), "  - name: frame\n", "  - name: " + name + "\n"));
     const auto start = std::chrono::steady_clock::now();
     const auto e = expect_error(file, file.string() + ":18: obstacles[1].name: ");
     CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(10));  // generous: a loaded 2-core machine
@@ -315,15 +309,15 @@ TEST_CASE("hardening: names are at most 64 characters", "[unit]") {
     CHECK(contains(e.what(), "... (2097152 characters)'"));
   }
   SECTION("64 characters pass, 65 do not") {
-    const fs::path ok = dir.write("ok.yaml", replace(scenario_text(), "name: block", "name: " + std::string(64, 'b')));
+    const fs::path ok = dir.write("ok.yaml", mgc::test::replace_first(scenario_text(), "name: block", "name: " + std::string(64, 'b')));
     CHECK(io::load_scenario(ok).obstacles[0].name.size() == 64);
-    const fs::path file = dir.write("scenario.yaml", replace(scenario_text(), "name: block", "name: " + std::string(65, 'b')));
+    const fs::path file = dir.write("scenario.yaml", mgc::test::replace_first(scenario_text(), "name: block", "name: " + std::string(65, 'b')));
     (void)expect_error(file, file.string() + ":14: obstacles[0].name: ");
-    const fs::path scenario_name = dir.write("name.yaml", replace(scenario_text(), "name: hardening-base", "name: " + std::string(65, 's')));
+    const fs::path scenario_name = dir.write("name.yaml", mgc::test::replace_first(scenario_text(), "name: hardening-base", "name: " + std::string(65, 's')));
     (void)expect_error(scenario_name, scenario_name.string() + ":1: name: ");
   }
   SECTION("a frame too big for the obstacle limit is refused before it is expanded") {
-    const fs::path file = dir.write("scenario.yaml", replace(replace(replace(scenario_text(), "bays: [2, 1]", "bays: [100, 100]"),
+    const fs::path file = dir.write("scenario.yaml", mgc::test::replace_first(mgc::test::replace_first(mgc::test::replace_first(scenario_text(), "bays: [2, 1]", "bays: [100, 100]"),
                                                                       "storeys: 2", "storeys: 100"),
                                                              "bay_size_m: [6, 6]", "bay_size_m: [1, 1]"));
     const auto e = expect_error(file, file.string() + ":21: obstacles[1].bays: ");
@@ -334,7 +328,7 @@ TEST_CASE("hardening: names are at most 64 characters", "[unit]") {
 TEST_CASE("hardening: echoed values are cut and kept on one line", "[unit]") {
   TempDir dir;
   SECTION("a 1 MB value") {
-    const fs::path file = dir.write("scenario.yaml", replace(scenario_text(), "load_lb: 20000", "load_lb: " + std::string(1 << 20, '9') + "x"));
+    const fs::path file = dir.write("scenario.yaml", mgc::test::replace_first(scenario_text(), "load_lb: 20000", "load_lb: " + std::string(1 << 20, '9') + "x"));
     const auto e = expect_error(file, file.string() + ":7: task.load_lb: expected a number, got '99999");
     CHECK(contains(e.what(), "... (1048577 characters)'"));
   }
@@ -342,16 +336,16 @@ TEST_CASE("hardening: echoed values are cut and kept on one line", "[unit]") {
     // An explicit key ("? "): YAML allows no plain key over 1024 characters.
     const std::string key(1 << 20, 'k');
     const fs::path file =
-        dir.write("scenario.yaml", replace(scenario_text(), "  sling_length_m: 1\n", "  sling_length_m: 1\n  ? " + key + "\n  : 2\n"));
+        dir.write("scenario.yaml", mgc::test::replace_first(scenario_text(), "  sling_length_m: 1\n", "  sling_length_m: 1\n  ? " + key + "\n  : 2\n"));
     const auto e = expect_error(file, file.string() + ":13: task.kkkk");
     CHECK(contains(e.what(), "unknown field"));
     CHECK(e.field().size() <= io::kMaxEchoChars);
   }
   SECTION("embedded newlines and control characters are escaped") {
-    const fs::path file = dir.write("scenario.yaml", replace(scenario_text(), "type: box", "type: \"box\\nfire\\rescape\\x1b[2J\""));
+    const fs::path file = dir.write("scenario.yaml", mgc::test::replace_first(scenario_text(), "type: box", "type: \"box\\nfire\\rescape\\x1b[2J\""));
     const auto e = expect_error(file, file.string() + ":15: obstacles[0].type: ");
     CHECK(contains(e.what(), "got 'box\\nfire\\rescape\\x1b[2J'"));
-    const fs::path named = dir.write("named.yaml", replace(scenario_text(), "name: block", "name: \"two\\nlines\""));
+    const fs::path named = dir.write("named.yaml", mgc::test::replace_first(scenario_text(), "name: block", "name: \"two\\nlines\""));
     const auto n = expect_error(named, named.string() + ":14: obstacles[0].name: ");
     CHECK(contains(n.what(), "expected a name without control characters, got 'two\\nlines'"));
   }
@@ -359,7 +353,7 @@ TEST_CASE("hardening: echoed values are cut and kept on one line", "[unit]") {
     const fs::path deep = dir.path() / std::string(200, 'd');
     fs::create_directory(deep);
     const fs::path file = deep / "scenario.yaml";
-    std::ofstream(file) << replace(scenario_text(), "load_lb: 20000", "load_lb: heavy");
+    std::ofstream(file) << mgc::test::replace_first(scenario_text(), "load_lb: 20000", "load_lb: heavy");
     const auto e = expect_error(file, file.string().substr(0, 60));
     CHECK(e.file() == file.string());
     CHECK(contains(e.what(), "task.load_lb: expected a number, got 'heavy'"));

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <catch2/catch.hpp>
+
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -31,5 +33,13 @@ class TempFile {
  private:
   std::filesystem::path path_;
 };
+
+//! text with its first occurrence of from replaced by to; the test fails when there is none.
+//! (Catch2's REQUIRE: include this after catch.hpp.)
+inline std::string replace_first(std::string text, const std::string& from, const std::string& to) {
+  const auto pos = text.find(from);
+  REQUIRE(pos != std::string::npos);
+  return text.replace(pos, from.size(), to);
+}
 
 }  // namespace mgc::test
