@@ -87,6 +87,16 @@ struct Cycle {
   [[nodiscard]] double total_us() const { return read_us + step_us + write_us; }
 };
 
+//! The controller as the suite runs it: the thesis's DRRT, whose path takes the west route that
+//! crane 2's script swings across (as the controller's intrusion tests do). The default
+//! re-planner's path lifts the boom over the frame, where crane 2 cannot reach, and an intrusion
+//! suite on it would measure no intrusion.
+firmware::ControllerConfig west_route_config() {
+  firmware::ControllerConfig c;
+  c.replanner = "drrt";
+  return c;
+}
+
 //! The controller with its Hal and the simulated crane on one in-process loop bus with a manual
 //! clock: the simulator steps every millisecond, the cycle runs every cycle_us before the step of
 //! that millisecond (as tests/sim/sim_rig.hpp does at 10 ms).
@@ -107,7 +117,7 @@ class Rig {
     for (const auto& j : scenario.machine.joints) vmax.push_back(j.max_velocity);
     hal = std::make_unique<hal::Hal>(*controller_bus, sim->plan(), vmax);
     hal->set_valve_deadband(sim->config().valve_deadband);
-    controller = std::make_unique<firmware::Controller>(scenario, firmware::ControllerConfig{});
+    controller = std::make_unique<firmware::Controller>(scenario, west_route_config());
   }
 
   //! Runs until on_cycle returns false or the clock reaches end_us. commands() gives the cycle's
