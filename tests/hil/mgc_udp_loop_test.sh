@@ -16,15 +16,39 @@ scenario="$root/scenarios/thesis-steel-frame.yaml"
 base=$((49000 + ($$ % 3000) * 2))
 sim_port=$base
 mgc_port=$((base + 1))
-"$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$sim_port,peer=127.0.0.1:$mgc_port" --duration 12 --quiet \
-  >"$tmp/sim.out" 2>&1 &
-sim_pid=$!
-sleep 0.3
-"$mgc" --scenario "$scenario" --bus "udp:127.0.0.1:$mgc_port,peer=127.0.0.1:$sim_port" --lcm-url memq:// \
-  --goal-on-start --duration 8 >"$tmp/mgc.out" 2>&1
-code=$?
-kill "$sim_pid" 2>/dev/null
-wait "$sim_pid" 2>/dev/null
+
+# One run: mgc-sim and mgc for 8 s; mgc's output in $tmp/mgc.out, mgc-sim's in $tmp/sim.out.
+run_once() {
+  "$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$sim_port,peer=127.0.0.1:$mgc_port" --duration 12 --quiet \
+    >"$tmp/sim.out" 2>&1 &
+  sim_pid=$!
+  sleep 0.3
+  "$mgc" --scenario "$scenario" --bus "udp:127.0.0.1:$mgc_port,peer=127.0.0.1:$sim_port" --lcm-url memq:// \
+    --goal-on-start --duration 8 >"$tmp/mgc.out" 2>&1
+  code=$?
+  kill "$sim_pid" 2>/dev/null
+  wait "$sim_pid" 2>/dev/null
+}
+
+# A stall of either process beyond the 30 ms stale limit (or of mgc beyond the valve's 50 ms
+# command timeout) faults the lift, as designed; on a shared VM that stalls a real-time thread for
+# 30-150 ms now and then it can do so before the crane moves. Such a run (a FAULT with mgc's
+# wake-up lateness or mgc-sim's longest loop gap at 30 ms or more) is run again, at most twice;
+# a run that faults without a stall fails at once.
+stalled() {
+  grep -q -- '-> FAULT' "$tmp/mgc.out" || return 1
+  local late_us gap_ms
+  late_us=$(sed -nE 's/^mgc: loop: .*wake-up lateness p99 [0-9]+ us max ([0-9]+) us.*/\1/p' "$tmp/mgc.out")
+  gap_ms=$(sed -nE 's/^mgc-sim: timing: .*longest gap between two ([0-9]+)\.[0-9]+ ms.*/\1/p' "$tmp/sim.out")
+  [ "${late_us:-0}" -ge 30000 ] || [ "${gap_ms:-0}" -ge 30 ]
+}
+for attempt in 1 2 3; do
+  run_once
+  stalled || break
+  echo "note: attempt $attempt faulted at a stall of this machine:"
+  grep -E '^mgc: loop:|-> FAULT' "$tmp/mgc.out"
+  grep -E '^mgc-sim: timing:' "$tmp/sim.out"
+done
 
 cat "$tmp/mgc.out"
 [ "$code" -eq 0 ] || fail "mgc exited $code"
