@@ -336,6 +336,8 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     if (!escaping) escape(&event);
     event.t_s = t_s;
     event.at = q;
+    pose_obstacles(t_s, 0.0);
+    event.start_in_contact = world.hits_dynamic(q);
     pose_obstacles(t_s, escaping ? 0.0 : horizon_s);
     // With a prediction and nothing moving over it, what blocks the path now still will.
     const bool still = predicted > 0 && !escaping && !any_moves(t_s, t_s + horizon_s);

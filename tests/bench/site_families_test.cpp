@@ -12,7 +12,9 @@
 #include <string>
 
 #include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/execution.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/planners/replanner.hpp"
 #include "site_families.hpp"
 
 namespace {
@@ -119,5 +121,46 @@ TEST_CASE("an intruder site is the same site with a second machine that starts c
       CHECK((motion.back().position_m - motion.front().position_m).norm() > 15.0);
     }
   }
+  std::filesystem::remove_all(folder);
+}
+
+TEST_CASE("a repair the intruder makes impossible is one where it stands on the machine, and the event says so") {
+  // The long-swing site's intruder drives in through the crane's working area and, as the sites
+  // suite runs it, onto the crane where it stopped (6 s horizon, predicted copies 1 s apart).
+  using namespace mgc::planning;
+  const auto folder = fresh_folder("contact");
+  const mgc::bench::SiteFamily* family = nullptr;
+  for (const auto& f : mgc::bench::site_families()) {
+    if (f.name == "crane-long-swing") family = &f;
+  }
+  REQUIRE(family != nullptr);
+  const auto site = mgc::bench::generate_intruder_site(*family, 0, kMachines, folder);
+  io::LoadedScenario loaded = io::load_and_build(site.file);
+  constexpr double kHorizonS = 6.0;
+  loaded.world = build_world(loaded.scenario, *loaded.model, 0.0, static_cast<int>(kHorizonS));
+  ReplanSettings replan;
+  replan.max_iterations = loaded.scenario.planner.replan_max_iterations;
+  replan.goal_bias = loaded.scenario.planner.replan_goal_bias;
+  // An independent world without predicted copies: the intruder's present pose only.
+  io::LoadedScenario present = io::load_and_build(site.file);
+  int in_contact = 0;
+  for (std::uint64_t seed = 0; seed < 2; ++seed) {
+    PlanningProblem problem = planning_problem(loaded.scenario, *loaded.model, *loaded.world);
+    problem.seed = seed;
+    ExecutionSettings execution;
+    execution.prediction_horizon_s = kHorizonS;
+    execution.max_repairs = 10;
+    execution.record_trajectory = false;
+    auto replanner = make_replanner("drrt-axis-connect");
+    const ExecutionResult r = execute_with_replanning(loaded.scenario, problem, *replanner, replan, execution);
+    for (const RepairEvent& e : r.repairs) {
+      INFO("seed " << seed << " event at " << e.t_s << " s: " << to_string(e.status));
+      present.world->set_dynamic_pose(0, loaded.scenario.dynamic_obstacles.front().pose_at(e.t_s));
+      CHECK(e.start_in_contact == present.world->hits_dynamic(e.at));
+      in_contact += e.start_in_contact ? 1 : 0;
+      if (e.status != PlannerStatus::Solved) CHECK((e.start_in_contact || e.predicted_start_conflict));
+    }
+  }
+  CHECK(in_contact > 0);
   std::filesystem::remove_all(folder);
 }

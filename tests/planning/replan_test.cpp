@@ -207,7 +207,7 @@ TEST_CASE("drrt-con-con-mod completes the lift past the swinging crane, every mo
 }
 
 TEST_CASE("with mgc-bench's 6 s horizon every event of the swinging-crane lifts is solved, nothing reaching the machine", "[replan]") {
-  // Issue 5's re-planning target on the thesis site, at the three phases mgc-bench starts the
+  // The re-planning target on the thesis site, at the three phases mgc-bench starts the
   // lifts at; the repaired paths and every executed move are re-checked.
   int repairs = 0;
   for (const double start_s : {0.0, 15.0, 30.0}) {

@@ -184,6 +184,8 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
             row.escape_ms = e.escape_ms;
             row.retreat_s = e.retreat_s;
             row.escape_joint = e.escape_joint;
+            row.predicted_start_conflict = e.predicted_start_conflict;
+            row.start_in_contact = e.start_in_contact;
             out.rows.push_back(std::move(row));
           }
           progress.tick(std::string(name) + " seed " + std::to_string(seed));
@@ -264,17 +266,18 @@ ReplanTables run_replanning_tables(const PlanningBenchOptions& options, int runs
 
 void write_replan_csv(std::ostream& out, const std::vector<ReplanRow>& rows) {
   out << "scenario,replanner,seed,start_time_s,outcome,contact_states,first_plan_ms,event,event_t_s,status,repair_ms,"
-         "iterations,invalidated_nodes,bridge_attempts,path_nodes,escape_ms,retreat_s,escape_joint\n";
+         "iterations,invalidated_nodes,bridge_attempts,path_nodes,escape_ms,retreat_s,escape_joint,predicted_start_conflict,start_in_contact\n";
   for (const ReplanRow& r : rows) {
     out << r.scenario << ',' << r.replanner << ',' << r.seed << ',' << r.start_time_s << ',' << r.outcome << ','
         << r.contact_states << ',' << r.first_plan_ms << ',';
     if (r.event < 0) {
-      out << ",,,,,,,,,,\n";
+      out << ",,,,,,,,,,,,\n";
       continue;
     }
     out << r.event << ',' << r.event_t_s << ',' << r.status << ',' << r.repair_ms << ',' << r.iterations << ','
         << r.invalidated_nodes << ',' << r.bridge_attempts << ',' << r.path_nodes << ',' << r.escape_ms << ','
-        << r.retreat_s << ',' << r.escape_joint << '\n';
+        << r.retreat_s << ',' << r.escape_joint << ',' << (r.predicted_start_conflict ? 1 : 0) << ','
+        << (r.start_in_contact ? 1 : 0) << '\n';
   }
 }
 
@@ -291,6 +294,7 @@ void write_replan_json(tools::JsonWriter& w, const std::vector<ReplanRow>& rows)
       w.key("invalidated_nodes").value(r.invalidated_nodes).key("bridge_attempts").value(r.bridge_attempts);
       w.key("path_nodes").value(r.path_nodes);
       w.key("escape_ms").value(r.escape_ms).key("retreat_s").value(r.retreat_s).key("escape_joint").value(r.escape_joint);
+      w.key("predicted_start_conflict").value(r.predicted_start_conflict).key("start_in_contact").value(r.start_in_contact);
     }
     w.end_object();
   }

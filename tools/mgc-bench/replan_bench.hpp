@@ -32,6 +32,10 @@ struct ReplanRow {
   double escape_ms = 0.0;
   double retreat_s = 0.0;
   int escape_joint = -1;
+  //! RepairEvent's: the prediction still over the machine after its retreat, and an obstacle at
+  //! its present pose on the machine where it stopped.
+  bool predicted_start_conflict = false;
+  bool start_in_contact = false;
   int iterations = 0;
   int invalidated_nodes = 0;
   int bridge_attempts = 0;

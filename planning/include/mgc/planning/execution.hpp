@@ -49,6 +49,9 @@ struct RepairEvent {
   //! The prediction still covered the machine after retreating, so the repair saw the obstacles'
   //! present poses.
   bool predicted_start_conflict = false;
+  //! An obstacle at its present pose overlapped the machine where it stopped: it had run into the
+  //! machine, and no path could start there until it moved off.
+  bool start_in_contact = false;
 };
 
 struct ExecutedState {
