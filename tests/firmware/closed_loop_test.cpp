@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Closed loop over the bus (issue 7, first end-to-end piece): the thesis crane planned with limcon,
+// Closed loop over the bus (end to end): the thesis crane planned with limcon,
 // the path followed one joint at a time by the online jerk-limited generator, velocity commands
 // with position feedback written through the Hal to the simulated crane, whose true state must
 // reach the goal without touching the site.

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// The re-planners run inside the control loop (issue 5): after reset(), replan() and step() must
+// The re-planners run inside the control loop: after reset(), replan() and step() must
 // never touch the heap, through every repair a lift needs. tests/support/allocation_counter.cpp
 // counts allocations program-wide; a wrapper counts those made inside the repair calls only.
 #include <catch2/catch.hpp>

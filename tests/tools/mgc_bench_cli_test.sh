@@ -56,7 +56,7 @@ grep -q "| thesis RRTBiasedLimCon |" "$tmp/a/thesis.md" || fail "thesis.md has n
 if grep -q "OMPL RRTConnect" "$tmp/a/thesis.md" && ! grep -q "OMPL not built" "$tmp/a/thesis.md"; then
   [ "$(column "$tmp/a/thesis.csv" planner | grep -cx ompl-rrtconnect)" -eq 3 ] || fail "thesis.csv: not 3 OMPL RRTConnect runs"
   grep -q '"paired"' "$tmp/a/thesis.json" || fail "thesis.json has no paired timing"
-  grep -Eq "^Issue 5 targets, .*target >= 3 in both\): \*\*(met|not met)\*\*" "$tmp/a/thesis.md" ||
+  grep -Eq "^Speed targets against OMPL, .*target >= 3 in both\): \*\*(met|not met)\*\*" "$tmp/a/thesis.md" ||
     fail "thesis.md gives no verdict on the speed target"
 fi
 

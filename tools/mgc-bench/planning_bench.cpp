@@ -784,14 +784,14 @@ int run_thesis_suite(const PlanningBenchOptions& options, const std::string& com
         std::to_string(default_planner.successes) + "/" + std::to_string(default_planner.runs) +
         ", multi-joint edges per path " + fixed(default_planner.raw.multi_joint_edges, 2) + " (target 0): " + verdict(default_met) + ".\n";
   if (!have_ompl()) {
-    md += "\nIssue 5 targets: cannot be checked, OMPL not built.\n";
+    md += "\nSpeed targets against OMPL: cannot be checked, OMPL not built.\n";
   } else {
     const double speed = median_ms(connect) / median_ms(limcon);
     const double paired_speed = paired.ompl_median() / paired.ours_median();
     const bool speed_met = std::isfinite(speed) && speed >= 3.0 && std::isfinite(paired_speed) && paired_speed >= 3.0 &&
                            paired.unsolved == 0;
     const double fewer = connect.simplified.switches / limcon.simplified.switches;
-    md += "\nIssue 5 targets, this run, `limcon` against OMPL RRTConnect with the same checker: median planning time " +
+    md += "\nSpeed targets against OMPL, this run, `limcon` against OMPL RRTConnect with the same checker: median planning time " +
           fixed(median_ms(limcon), 2) + " ms against " + fixed(median_ms(connect), 2) + " ms in the table's columns, OMPL's / ours = " +
           ratio_text(median_ms(connect), median_ms(limcon)) + "; in pairs (below) " + fixed(paired.ours_median(), 2) +
           " ms against " + fixed(paired.ompl_median(), 2) + " ms, " + ratio_text(paired.ompl_median(), paired.ours_median()) +

@@ -9,7 +9,7 @@
 
 namespace mgc::bench {
 
-//! Re-planning on the event scenarios (issue 5): seed 000's Table 5 (DRRT against
+//! Re-planning on the event scenarios: seed 000's Table 5 (DRRT against
 //! DRRT-Con-Con-Mod: time per re-planning event, successes) and the thesis's Table 4.3 (DRRT
 //! re-planning on the hydraulic and tower cranes), each lift run with the kinematic execution of
 //! execute_with_replanning for every seed at several phases of the intrusion, plus the excavator

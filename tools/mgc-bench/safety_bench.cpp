@@ -92,7 +92,7 @@ guidance::MachineState state(double swing_deg, double swing_velocity_deg_s) {
 
 //! The site with a road 8 m west (a wall) and a 40 m ceiling: the envelope the loop suite runs.
 constexpr const char* kEnvelopeScenario = "thesis-steel-frame-road.yaml";
-//! Issue 7's cycle compute budget: p99 under this. [µs]
+//! The controller cycle's compute budget: p99 under this. [µs]
 constexpr double kCycleBudgetUs = 200.0;
 //! Timed rounds over each class's configurations, after one warm-up round.
 constexpr int kEnvelopeRounds = 5;
@@ -271,7 +271,7 @@ std::string envelope_near_limits(const SafetyBenchOptions& options) {
     const Cell& near = cells[kInBand];
     const auto ratio = [](double a, double b) { return a / std::max(b, 1e-9); };
     md += fmt("\nNear / far, medians in this run (wall): nearest %.2f×, limit_velocity %.2f×, cycle %.2f× (CPU clock: %.2f×, %.2f×, "
-              "%.2f×). Against issue 7's cycle budget (compute p99 < %.0f µs): the near-limit cycle's envelope calls take p99 %.2f µs "
+              "%.2f×). Against the cycle's compute budget (compute p99 < %.0f µs): the near-limit cycle's envelope calls take p99 %.2f µs "
               "wall = %.1f %% (median %.2f µs = %.1f %%); far from the limits p99 %.2f µs = %.1f %%.\n",
               ratio(near.nearest.wall.median, far.nearest.wall.median), ratio(near.limit.wall.median, far.limit.wall.median),
               ratio(near.cycle.wall.median, far.cycle.wall.median), ratio(near.nearest.cpu.median, far.nearest.cpu.median),
