@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/firmware/cyclic_executive.hpp"
 
+#include <malloc.h>
 #include <sched.h>
 #include <sys/mman.h>
 #include <time.h>
@@ -131,6 +132,10 @@ RealtimeReport enable_realtime(int fifo_priority, bool lock_memory) {
     }
   }
   if (lock_memory) {
+    // Freed memory stays in the process: a planner's reset that grows its pools, or any later
+    // allocation, reuses locked pages rather than faulting in new ones.
+    (void)mallopt(M_TRIM_THRESHOLD, -1);
+    (void)mallopt(M_MMAP_MAX, 0);
     if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
       report.memory_locked = true;
     } else {

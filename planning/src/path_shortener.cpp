@@ -12,8 +12,10 @@ PathShortener::PathShortener(int dof, std::size_t capacity, double chunk_m, int 
     : chunk_m_(std::max(chunk_m, 1e-3)), capacity_(std::max<std::size_t>(capacity, 2)), max_orders_(std::max(max_orders, 1)) {
   const JointVector zero = JointVector::Zero(dof);
   step_ = zero;
-  nodes_.assign(capacity_, zero);
-  source_.assign(capacity_, -1);
+  // Reserved, not filled: the nodes are written as a path comes in, so only the memory a path
+  // uses is ever touched (filling the whole capacity costs more than shortening a short path).
+  nodes_.reserve(capacity_);
+  source_.reserve(capacity_);
   stairs_.assign(static_cast<std::size_t>(dof), zero);
   at_ = zero;
   chunk_to_ = zero;
@@ -35,15 +37,18 @@ PathShortener::Status PathShortener::begin(CollisionWorld& world, const JointVec
   chunks_ = 0;
   trying_ = false;
   truncated_ = (prefix ? 1 : 0) + path.size() > capacity_;
+  nodes_.clear();
+  source_.clear();
   if (truncated_) return status_ = Status::Done;
   if (prefix) {
-    nodes_[size_] = *prefix;
-    source_[size_++] = -1;
+    nodes_.push_back(*prefix);
+    source_.push_back(-1);
   }
   for (std::size_t i = 0; i < path.size(); ++i) {
-    nodes_[size_] = path[i];
-    source_[size_++] = static_cast<int>(i);
+    nodes_.push_back(path[i]);
+    source_.push_back(static_cast<int>(i));
   }
+  size_ = nodes_.size();
   first_ = first;
   i_ = first;
   k_ = size_ > 0 ? size_ - 1 : 0;
@@ -153,12 +158,16 @@ void PathShortener::apply() noexcept {
       source_[t - (replaced - m)] = source_[t];
     }
   } else if (m > replaced) {
+    nodes_.resize(size_ + (m - replaced));
+    source_.resize(size_ + (m - replaced));
     for (std::size_t t = size_; t-- > k_ + 1;) {
       nodes_[t + (m - replaced)] = nodes_[t];
       source_[t + (m - replaced)] = source_[t];
     }
   }
   size_ = size_ - replaced + m;
+  nodes_.resize(size_);
+  source_.resize(size_);
   for (std::size_t s = 0; s + 1 < m; ++s) {
     nodes_[i_ + 1 + s] = stairs_[s];
     source_[i_ + 1 + s] = -1;

@@ -4,6 +4,7 @@
 // on one core; compare ratios measured in one run, not absolute times across runs.
 
 #include <CLI/CLI.hpp>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -48,6 +49,11 @@ const std::vector<std::pair<std::string, PlanningSuite>>& planning_suites() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Freed memory stays in the process, as in mgc and mgc-sim: a query's allocations reuse pages
+  // already mapped instead of faulting in fresh ones, so the times are the planners' and not the
+  // kernel's (on this virtual machine a fresh page costs microseconds).
+  (void)mallopt(M_TRIM_THRESHOLD, -1);
+  (void)mallopt(M_MMAP_MAX, 0);
   CLI::App app{"mgc-bench: the seed papers' planning experiments, with OMPL's planners and the published figures beside ours"};
   std::string suite_name = "all";
   int runs = 0;
