@@ -151,11 +151,7 @@ ReplanTable run_intruder_table(const PlanningBenchOptions& options, int seeds, c
           for (std::size_t e = 0; e < r.repairs.size(); ++e) {
             const RepairEvent& ev = r.repairs[e];
             const bool solved = ev.status == PlannerStatus::Solved;
-            // The intruder on the machine (run into it where it stopped, or its prediction still
-            // covering it after the retreat) or parked on the goal: no repair can help until it
-            // moves.
-            const bool covered =
-                ev.start_in_contact || ev.predicted_start_conflict || ev.status == PlannerStatus::GoalOccupied;
+            const bool covered = machine_or_goal_covered(ev);
             ++col.events;
             if (covered) {
               ++col.covered;

@@ -54,6 +54,13 @@ struct RepairEvent {
   bool start_in_contact = false;
 };
 
+//! Whether an obstacle covered the machine where it stopped (ran into it, or its prediction still
+//! over it after the retreat) or the goal (GoalOccupied): no repair can succeed until it moves, so
+//! benchmarks count such events apart from the ones a repair must solve.
+[[nodiscard]] inline bool machine_or_goal_covered(const RepairEvent& event) noexcept {
+  return event.start_in_contact || event.predicted_start_conflict || event.status == PlannerStatus::GoalOccupied;
+}
+
 struct ExecutedState {
   double t_s = 0.0;  //!< scenario time [s]
   JointVector q;
