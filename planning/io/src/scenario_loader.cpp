@@ -11,6 +11,7 @@
 
 #include "dual_crane_fields.hpp"
 #include "geometry_fields.hpp"
+#include "scenario_fields.hpp"
 #include "work_cycle_fields.hpp"
 #include "yaml_fields.hpp"
 
@@ -564,6 +565,43 @@ PlannerParams read_planner(const Value& value) {
   return p;
 }
 
+}  // namespace
+
+MachineDefinition read_machine_field(const Value& machine_value, const std::filesystem::path& folder, const char* owner) {
+  const std::string machine_name = machine_value.text();
+  // A NUL would silently cut the path the system sees; no file name needs a control character.
+  for (const char c : machine_name) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) machine_value.fail("a path without control characters");
+  }
+  const std::filesystem::path machine_path = folder / machine_name;
+  // Looked at before load_machine, so that the complaint names this field; the error_code forms
+  // throw nothing, not even for a name longer than the system allows.
+  std::error_code missing;
+  if (!std::filesystem::exists(machine_path, missing) && !missing) {
+    machine_value.fail("a machine file relative to the " + std::string(owner) + "'s folder (" +
+                       echo(machine_path.string(), kMaxPathEchoChars) + " does not exist)");
+  }
+  if (const std::string problem = input_file_problem(machine_path); !problem.empty()) {
+    machine_value.fail_plain("the machine file " + echo(machine_path.string(), kMaxPathEchoChars) + ": " + problem);
+  }
+  return load_machine(machine_path);
+}
+
+void read_static_obstacles(const Value& value, std::vector<StaticObstacle>& out) {
+  std::set<std::string> names;
+  read_obstacles(value, out, names);
+}
+
+JointVector read_configuration_field(const Value& value, const MachineDefinition& machine) {
+  return read_configuration(value, machine);
+}
+
+TaskSpec read_task_field(const Value& value, const MachineDefinition& machine) { return read_task(value, machine); }
+
+PlannerParams read_planner_field(const Value& value) { return read_planner(value); }
+
+namespace {
+
 Scenario read_scenario(const std::filesystem::path& path) {
   const std::string file = path.string();
   const YAML::Node root = load_yaml(file);
@@ -574,24 +612,7 @@ Scenario read_scenario(const std::filesystem::path& path) {
   s.name = f.required("name").name();
   if (auto d = f.optional("description")) s.description = d->text();
 
-  const Value machine_value = f.required("machine");
-  const std::string machine_name = machine_value.text();
-  // A NUL would silently cut the path the system sees; no file name needs a control character.
-  for (const char c : machine_name) {
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) machine_value.fail("a path without control characters");
-  }
-  const std::filesystem::path machine_path = path.parent_path() / machine_name;
-  // Looked at before load_machine, so that the complaint names this field; the error_code forms
-  // throw nothing, not even for a name longer than the system allows.
-  std::error_code missing;
-  if (!std::filesystem::exists(machine_path, missing) && !missing) {
-    machine_value.fail("a machine file relative to the scenario's folder (" + echo(machine_path.string(), kMaxPathEchoChars) +
-                       " does not exist)");
-  }
-  if (const std::string problem = input_file_problem(machine_path); !problem.empty()) {
-    machine_value.fail_plain("the machine file " + echo(machine_path.string(), kMaxPathEchoChars) + ": " + problem);
-  }
-  s.machine = load_machine(machine_path);
+  s.machine = read_machine_field(f.required("machine"), path.parent_path(), "scenario");
   if (auto dual = f.optional("dual_crane")) s.dual_crane = read_dual_crane(*dual, s.machine);
 
   if (s.dual_crane) {
