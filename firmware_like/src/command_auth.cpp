@@ -51,13 +51,15 @@ const char* command_reason_name(std::int8_t reason) noexcept {
 
 CommandKey::~CommandKey() { sodium_memzero(bytes_.data(), bytes_.size()); }
 
-CommandKey load_command_key(const std::string& path) {
+CommandKey load_command_key(const std::string& path) { return load_key_file(path, "command key file"); }
+
+CommandKey load_key_file(const std::string& path, const char* what) {
   struct FileCloser {
     void operator()(std::FILE* f) const noexcept { std::fclose(f); }
   };
   std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
   if (!file) {
-    throw CommandKeyError("command key file " + path + ": cannot open (" + std::strerror(errno) +
+    throw CommandKeyError(std::string(what) + " " + path + ": cannot open (" + std::strerror(errno) +
                           "); expected 32 raw bytes");
   }
   std::array<std::uint8_t, kCommandKeyBytes + 1> buf{};
@@ -65,7 +67,7 @@ CommandKey load_command_key(const std::string& path) {
   if (n != kCommandKeyBytes) {
     const std::string got = n > kCommandKeyBytes ? "more than 32" : std::to_string(n);
     sodium_memzero(buf.data(), buf.size());
-    throw CommandKeyError("command key file " + path + ": " + got + " bytes; expected exactly 32 raw bytes");
+    throw CommandKeyError(std::string(what) + " " + path + ": " + got + " bytes; expected exactly 32 raw bytes");
   }
   std::array<std::uint8_t, kCommandKeyBytes> key{};
   std::memcpy(key.data(), buf.data(), key.size());
@@ -76,17 +78,21 @@ CommandKey load_command_key(const std::string& path) {
 }
 
 std::size_t command_canonical_bytes(const operator_command_t& cmd, std::span<std::uint8_t> out) noexcept {
-  const int size = cmd.getEncodedSize();
-  if (size <= static_cast<int>(kCommandMacBytes) || static_cast<std::size_t>(size) > out.size()) return 0;
-  if (cmd.encode(out.data(), 0, size) != size) return 0;
-  // mac is the last field, so the encoding without its final 32 bytes is everything else.
-  return static_cast<std::size_t>(size) - kCommandMacBytes;
+  return encoded_without_mac(cmd, out);
+}
+
+void compute_mac(std::span<const std::uint8_t> bytes, const CommandKey& key, std::uint8_t* mac) noexcept {
+  crypto_auth(mac, bytes.data(), bytes.size(), key.bytes().data());
+}
+
+bool mac_verifies(std::span<const std::uint8_t> bytes, const CommandKey& key, const std::uint8_t* mac) noexcept {
+  return crypto_auth_verify(mac, bytes.data(), bytes.size(), key.bytes().data()) == 0;
 }
 
 void sign_command(operator_command_t& cmd, const CommandKey& key) noexcept {
   std::array<std::uint8_t, kCommandEncodedMaxBytes> buf{};
   const std::size_t n = command_canonical_bytes(cmd, buf);
-  crypto_auth(cmd.mac, buf.data(), n, key.bytes().data());
+  compute_mac(std::span(buf.data(), n), key, cmd.mac);
 }
 
 CommandAuthenticator::CommandAuthenticator(const CommandKey& key, std::int64_t sequence_floor, std::int64_t max_skew_us)
@@ -136,7 +142,7 @@ CommandVerdict CommandAuthenticator::check(const operator_command_t& cmd, std::i
   // The MAC first: nothing else about an unauthenticated command is worth reporting to its sender.
   std::array<std::uint8_t, kCommandEncodedMaxBytes> buf{};
   const std::size_t n = command_canonical_bytes(cmd, buf);
-  if (n == 0 || crypto_auth_verify(cmd.mac, buf.data(), n, key_.bytes().data()) != 0) {
+  if (n == 0 || !mac_verifies(std::span(buf.data(), n), key_, cmd.mac)) {
     return {false, Status::REASON_BAD_MAC};
   }
   if (cmd.num_joints < 0 || cmd.num_joints > operator_command_t::MAX_JOINTS || cmd.alert_id < 0) {

@@ -119,6 +119,19 @@ TEST_CASE("base footprints: apart, touching and turned into each other", "[unit]
   b.rotate(Eigen::AngleAxisd(0.5 * std::numbers::pi, Eigen::Vector3d::UnitZ()));
   b.translate(Eigen::Vector3d(-tms.mobile_crane.carrier_centre_m.x(), 0, 0));
   CHECK(footprints_overlap(base_footprint(tms, a), base_footprint(tms, b)));
+  // Two 1.8 m masts, one turned 45 deg and standing off the other's corner: apart along the
+  // turned one's diagonal only, though the first one's own axes see their extents overlap.
+  const MachineDefinition& tower = site.machines[1].machine;
+  REQUIRE(tower.tower_crane.mast_width_m == 1.8);
+  Eigen::Isometry3d c = Eigen::Isometry3d::Identity();
+  c.translate(Eigen::Vector3d(1.9, 1.9, 0));
+  c.rotate(Eigen::AngleAxisd(0.25 * std::numbers::pi, Eigen::Vector3d::UnitZ()));
+  CHECK_FALSE(footprints_overlap(base_footprint(tower, a), base_footprint(tower, c)));
+  CHECK_FALSE(footprints_overlap(base_footprint(tower, c), base_footprint(tower, a)));
+  c = Eigen::Isometry3d::Identity();
+  c.translate(Eigen::Vector3d(1.4, 1.4, 0));
+  c.rotate(Eigen::AngleAxisd(0.25 * std::numbers::pi, Eigen::Vector3d::UnitZ()));
+  CHECK(footprints_overlap(base_footprint(tower, a), base_footprint(tower, c)));
 }
 
 TEST_CASE("site refusals: one line naming the file, the line and the field", "[unit]") {

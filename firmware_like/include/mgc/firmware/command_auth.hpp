@@ -39,9 +39,31 @@ class CommandKeyError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-//! Reads the key file: exactly 32 raw bytes (e.g. `head -c 32 /dev/urandom > mgc.key`). A missing,
-//! unreadable, short or long file throws CommandKeyError. Start-up only (allocates, may block).
+//! Reads a key file: exactly 32 raw bytes (e.g. `head -c 32 /dev/urandom > mgc.key`). A missing,
+//! unreadable, short or long file throws CommandKeyError whose message starts with `what` (e.g.
+//! "site key file"). The operator-command key and the site key share the format. Start-up only
+//! (allocates, may block).
+[[nodiscard]] CommandKey load_key_file(const std::string& path, const char* what);
+
+//! load_key_file(path, "command key file").
 [[nodiscard]] CommandKey load_command_key(const std::string& path);
+
+//! The bytes a MAC covers for an LCM message whose last field is a kCommandMacBytes mac: its
+//! encoding (fingerprint and every field) without the trailing mac. Returns the length written into
+//! out (0 if out is too small). RT-safe for fixed-size messages: no alloc, no lock, no throw.
+template <class Msg>
+std::size_t encoded_without_mac(const Msg& msg, std::span<std::uint8_t> out) noexcept {
+  static_assert(sizeof(msg.mac) == kCommandMacBytes, "the message's mac must be a crypto_auth MAC");
+  const int size = msg.getEncodedSize();
+  if (size <= static_cast<int>(kCommandMacBytes) || static_cast<std::size_t>(size) > out.size()) return 0;
+  if (msg.encode(out.data(), 0, size) != size) return 0;
+  return static_cast<std::size_t>(size) - kCommandMacBytes;
+}
+
+//! crypto_auth of bytes under key into mac. RT-safe.
+void compute_mac(std::span<const std::uint8_t> bytes, const CommandKey& key, std::uint8_t* mac) noexcept;
+//! Whether mac is crypto_auth of bytes under key (constant time). RT-safe.
+[[nodiscard]] bool mac_verifies(std::span<const std::uint8_t> bytes, const CommandKey& key, const std::uint8_t* mac) noexcept;
 
 //! The verdict on one command; reason uses command_status_t::REASON_* values.
 struct CommandVerdict {
