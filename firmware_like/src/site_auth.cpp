@@ -19,7 +19,7 @@ static_assert(std::extent_v<decltype(site_state_t::stop_travel)> == site_state_t
 static_assert(std::extent_v<decltype(site_plan_t::waypoint_time_s)> == site_plan_t::MAX_WAYPOINTS);
 static_assert(std::extent_v<decltype(site_plan_t::positions), 1> == site_plan_t::MAX_JOINTS);
 static_assert(site_state_t::MAX_JOINTS == kMaxJoints);
-static_assert(static_cast<std::size_t>(SiteReason::BadField) + 1 == kNumSiteReasons);
+static_assert(static_cast<std::size_t>(SiteReason::OutOfRange) + 1 == kNumSiteReasons);
 
 // Both types are fixed size: site_state_t encodes to a few hundred bytes, site_plan_t to under 5 KB.
 constexpr std::size_t kSiteEncodedMaxBytes = 8192;
@@ -146,16 +146,16 @@ SiteReason SiteVerifier::check_state(const site_state_t& msg, std::int64_t now_u
   if (msg.priority != m.priority) return counted(SiteReason::WrongPriority);
   if (msg.sequence <= last_state_sequence_[i]) return counted(SiteReason::StaleSequence);
   if (msg.num_joints != m.num_joints) return counted(SiteReason::JointCount);
+  if (msg.supervisor_state <= machine_state_t::SUPERVISOR_UNKNOWN || msg.supervisor_state > machine_state_t::SUPERVISOR_ESTOP ||
+      msg.time_to_rest_s < 0.0 || msg.plan_id < 0 || msg.plan_time_s < 0.0) {
+    return counted(SiteReason::BadField);
+  }
   bool finite = std::isfinite(msg.time_to_rest_s) && std::isfinite(msg.plan_time_s);
   for (int j = 0; j < msg.num_joints; ++j) {
     finite = finite && std::isfinite(msg.joint_position[j]) && std::isfinite(msg.joint_velocity[j]) &&
              std::isfinite(msg.stop_travel[j]);
   }
   if (!finite) return counted(SiteReason::NotFinite);
-  if (msg.supervisor_state <= machine_state_t::SUPERVISOR_UNKNOWN || msg.supervisor_state > machine_state_t::SUPERVISOR_ESTOP ||
-      msg.time_to_rest_s < 0.0 || msg.plan_id < 0 || msg.plan_time_s < 0.0) {
-    return counted(SiteReason::BadField);
-  }
   for (int j = 0; j < msg.num_joints; ++j) {
     const auto k = static_cast<std::size_t>(j);
     if (!in_range(m, j, msg.joint_position[j]) || !in_range(m, j, msg.joint_position[j] + msg.stop_travel[j]) ||

@@ -28,7 +28,7 @@ using SiteKey = CommandKey;
 [[nodiscard]] SiteKey load_site_key(const std::string& path);
 
 //! Why a site message was refused (or Accepted). The checks run in this order and the first that
-//! fails names the refusal.
+//! fails names the refusal (WaypointTimes applies to plans, WrongPriority to states).
 enum class SiteReason : std::uint8_t {
   Accepted = 0,
   Undecodable,      //!< the bytes do not decode as the type, or have trailing bytes
@@ -39,13 +39,13 @@ enum class SiteReason : std::uint8_t {
   TimeAhead,        //!< sender_time_us more than the tolerated skew ahead of the receiver's clock
   TimeBehind,       //!< sender_time_us more than the tolerated skew behind it: a recording or a late message
   StaleSequence,    //!< sequence not above the last accepted one of that machine and type: a replay or reordering
-  NotFinite,        //!< a NaN or infinite number
   JointCount,       //!< num_joints is not the machine's joint count
+  BadField,         //!< another field outside its documented values (supervisor state, a negative
+                    //!< plan id or time, a negative time to rest; a plan id <= 0, 2..64 waypoints)
+  NotFinite,        //!< a NaN or infinite number among the valid entries
+  WaypointTimes,    //!< waypoint times not starting at >= 0 and strictly increasing
   OutOfRange,       //!< a position (or position + stop_travel) outside the joint range by more than the
                     //!< tolerance, or a speed above the joint's maximum by more than the tolerance
-  WaypointTimes,    //!< waypoint times not starting at >= 0 and strictly increasing
-  BadField,         //!< another field outside its documented values (supervisor state, plan ids,
-                    //!< waypoint count, sequence or times <= 0, a negative time to rest)
 };
 inline constexpr std::size_t kNumSiteReasons = 14;
 
