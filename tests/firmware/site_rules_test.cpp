@@ -29,7 +29,7 @@ constexpr std::int64_t kNow0_us = 50'000'000;
 }  // namespace
 
 TEST_CASE("the roster of the shipped site: ids, priorities, joint ranges, tags and speed bounds", "[unit]") {
-  const mgc::planning::Site site = mgc::planning::io::load_site(std::string(MGC_SOURCE_DIR) + "/scenarios/thesis-steel-frame-site.yaml");
+  const mgc::planning::Site site = mgc::planning::io::load_site(std::string(MGC_SOURCE_DIR) + "/scenarios/sites/thesis-steel-frame.yaml");
   const SiteRoster roster = make_site_roster(site);
   REQUIRE(roster.count == 2);
   CHECK(roster.index_of(1) == 0);

@@ -16,15 +16,15 @@ using mgc::test::TempFile;
 
 namespace {
 
-const std::filesystem::path kSite = mgc::test::source_path("scenarios/thesis-steel-frame-site.yaml");
+const std::filesystem::path kSite = mgc::test::source_path("scenarios/sites/thesis-steel-frame.yaml");
 
 // The shipped site, its machine files named by absolute path so that a copy in the temp folder reads.
 std::string site_text() {
   std::ifstream in(kSite);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::string machines = mgc::test::source_path("scenarios/machines/").string();
-  for (std::size_t pos = text.find("machines/"); pos != std::string::npos; pos = text.find("machines/", pos + machines.size())) {
-    text.replace(pos, 9, machines);
+  for (std::size_t pos = text.find("../machines/"); pos != std::string::npos; pos = text.find("../machines/", pos + machines.size())) {
+    text.replace(pos, 12, machines);
   }
   return text;
 }
