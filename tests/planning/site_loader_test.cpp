@@ -163,6 +163,22 @@ TEST_CASE("site refusals: one line naming the file, the line and the field", "[u
     CHECK(load_error(replace_first(good, "udp_ports: [47020, 47021]", "udp_ports: [47020, 47011]")) ==
           ":73: machines[1].bus.udp_ports[1]: expected a port no other machine uses (machines[0].bus.udp_ports, line 45), got '47011'");
   }
+  SECTION("SocketCAN buses: the URL, a duplicate interface, a name the kernel would refuse") {
+    std::string text = replace_first(good, "udp_ports: [47010, 47011]   # [mgc-sim's end, mgc's end]: the binaries' defaults", "socketcan: vcan1");
+    {
+      TempFile file("site-vcan.yaml", text);
+      const Site site = io::load_site(file.path());
+      CHECK(site.machines[0].bus.kind == SiteBus::Kind::SocketCan);
+      CHECK(site.machines[0].bus.controller_url() == "socketcan:vcan1");
+      CHECK(site.machines[0].bus.machine_url() == "socketcan:vcan1");
+    }
+    CHECK(load_error(replace_first(text, "udp_ports: [47020, 47021]", "socketcan: vcan1")) ==
+          ":73: machines[1].bus.socketcan: expected an interface no other machine uses (machines[0].bus.socketcan, line 45), got 'vcan1'");
+    CHECK(load_error(replace_first(text, "socketcan: vcan1", "socketcan: 'vcan 1'")) ==
+          ":45: machines[0].bus.socketcan: expected an interface name of letters, digits, '_', '-' and '.', got 'vcan 1'");
+    CHECK(load_error(replace_first(text, "socketcan: vcan1", "socketcan: vcan456789abcdef")) ==
+          ":45: machines[0].bus.socketcan: expected an interface name of at most 15 characters, got 'vcan456789abcdef'");
+  }
   SECTION("a UWB tag id another machine has") {
     const std::string text = replace_first(good, "    priority: 2\n", "    priority: 2\n    uwb_tag_ids: [3]\n");
     CHECK(load_error(text) ==
