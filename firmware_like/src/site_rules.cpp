@@ -39,8 +39,8 @@ SiteRoster make_site_roster(const planning::Site& site) {
       e.continuous[j] = spec.continuous;
     }
     e.has_uwb_tags = !m.uwb_tag_ids.empty();
-    // The model of its first lift: the speed bound depends on the machine and its rigging only
-    // through the farthest body point, which a load hung on the hook can move outward.
+    // The largest over its lifts: a lift's load and rigging can move the farthest body point
+    // outward, and with it the bound.
     double speed = 0.0;
     for (std::size_t l = 0; l < m.lifts.size(); ++l) {
       const auto model = planning::build_model(planning::lift_scenario(site, i, l));
