@@ -217,6 +217,44 @@ TEST_CASE("bad input: UWB tag ids are 0..255 and unique", "[unit]") {
   CHECK(s.dynamic_obstacles[0].tags[1].position_m.x() == 3.0);
 }
 
+TEST_CASE("bad input: machine tags sit on a rigid body of the machine, with unique ids, near it", "[unit]") {
+  const auto tags = [](const std::string& entry) {
+    return scenario_text() + "machine_tags:\n  - {id: 7, body: boom_tip, position_m: [0, 0, 0.5]}\n  - " + entry + "\n";
+  };
+  // Line 30 is `machine_tags:`, 31 the good tag, 32 the entry under test.
+  expect_error(tags("{id: 8, body: jib, position_m: [0, 0, 0]}"), {32, "machine_tags[1].body", "a body or frame the joints pose rigidly"});
+  expect_error(tags("{id: 8, body: hook, position_m: [0, 0, 0]}"), {32, "machine_tags[1].body", "the rope, hook, sling and load swing"});
+  expect_error(tags("{id: 8, body: load, position_m: [0, 0, 0]}"), {32, "machine_tags[1].body", "got 'load'"});
+  expect_error(tags("{id: 8, body: boom, position_m: [0, 0, 0]}"), {32, "machine_tags[1].body", "the boom telescopes"});
+  expect_error(tags("{id: 7, body: carrier, position_m: [0, 0, 0]}"), {32, "machine_tags[1].id", "a tag id not used by another tag"});
+  expect_error(tags("{id: 300, body: carrier, position_m: [0, 0, 0]}"), {32, "machine_tags[1].id", "an integer"});
+  expect_error(tags("{id: 8, body: carrier, position_m: [0, 0, 1e9]}"), {32, "machine_tags[1].position_m[2]", "within the site extent"});
+  expect_error(tags("{id: 8, body: carrier, position_m: [150, 0, 0]}"), {32, "machine_tags[1].position_m", "within 100 m of the body's origin"});
+  expect_error(tags("{id: 8, body: carrier}"), {32, "machine_tags[1].position_m", "missing field"});
+  // An obstacle's tag and a machine tag share one id space.
+  const std::string dynamic =
+      "dynamic_obstacles:\n"
+      "  - name: truck\n"
+      "    parts: [{type: box, size_m: [8, 2.5, 3], position_m: [0, 0, 1.5]}]\n"
+      "    motion: [{t_s: 0, position_m: [0, -30, 0], yaw_deg: 0}]\n"
+      "    tags: [{id: 7, position_m: [0, 0, 3]}]\n";
+  expect_error(dynamic + tags("{id: 8, body: carrier, position_m: [0, 0, 0]}"),
+               {36, "machine_tags[0].id", "a tag id not used by another tag (obstacle tags included)"});
+  std::string nine = scenario_text() + "machine_tags:\n";
+  for (int i = 0; i < 9; ++i) nine += "  - {id: " + std::to_string(i) + ", body: carrier, position_m: [0, 0, 0]}\n";
+  expect_error(nine, {39, "machine_tags[8]", "at most 8 machine tags"});
+
+  TempFile file("scenario.yaml", tags("{id: 9, body: superstructure, position_m: [1, -2, 3]}"));
+  const Scenario s = io::load_scenario(file.path());
+  REQUIRE(s.machine_tags.size() == 2);
+  CHECK(s.machine_tags[0].id == 7);
+  CHECK(s.machine_tags[0].body == "boom_tip");
+  CHECK(s.machine_tags[0].position_m.z() == 0.5);
+  CHECK(s.machine_tags[1].body == "superstructure");
+  CHECK(s.machine_tags[1].position_m == Eigen::Vector3d(1, -2, 3));
+  CHECK(s.machine_tags[1].ref.line == 32);
+}
+
 TEST_CASE("bad input: the simulation section is checked field by field", "[unit]") {
   expect_error(scenario_text() + "simulation:\n  uwb_rate_hz: 0\n", {31, "simulation.uwb_rate_hz", "a number in"});
   expect_error(scenario_text() + "simulation:\n  uwb_noise_m: 0.2\n", {31, "simulation.uwb_noise_m", "unknown field"});

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/machine_tags.hpp"
 
 #include <cmath>
 #include <map>
@@ -379,6 +380,33 @@ DynamicObstacleSpec read_dynamic(const Value& value, std::set<std::string>& name
   return d;
 }
 
+// machine_tags: UWB tags on the machine itself, on the bodies and frames machine_tags.hpp accepts.
+std::vector<MachineTagSpec> read_machine_tags(const Value& value, const Scenario& s, std::set<int>& tag_ids) {
+  std::vector<MachineTagSpec> tags;
+  for (const Value& tag : value.list()) {
+    if (tags.size() == kMaxMachineTags) tag.fail_plain("at most " + std::to_string(kMaxMachineTags) + " machine tags");
+    Fields tf = tag.fields();
+    MachineTagSpec t;
+    const Value id = tf.required("id");
+    t.id = id.integer(0, 255);
+    if (!tag_ids.insert(t.id).second) id.fail("a tag id not used by another tag (obstacle tags included)");
+    const Value body = tf.required("body");
+    t.body = body.name();
+    if (const std::string problem = tag_mount_problem(s.machine.kind, s.dual_crane.has_value(), t.body); !problem.empty()) {
+      body.fail(problem);
+    }
+    t.ref = {body.file(), body.line(), body.path()};
+    const Value position = tf.required("position_m");
+    t.position_m = position.position_m();
+    if (!(t.position_m.norm() <= kMaxMachineTagOffset_m)) {
+      position.fail("a position within " + format_number(kMaxMachineTagOffset_m) + " m of the body's origin");
+    }
+    tf.finish();
+    tags.push_back(std::move(t));
+  }
+  return tags;
+}
+
 // simulation: mgc-sim's settings for this site; ranges as docs/simulator.md states them.
 SimulationSpec read_simulation(const Value& value) {
   Fields f = value.fields();
@@ -635,10 +663,11 @@ Scenario read_scenario(const std::filesystem::path& path) {
 
   std::set<std::string> names;
   read_obstacles(f.required("obstacles"), s.obstacles, names);
+  std::set<int> tag_ids;
   if (auto dynamic = f.optional("dynamic_obstacles")) {
-    std::set<int> tag_ids;
     for (const Value& d : dynamic->list()) s.dynamic_obstacles.push_back(read_dynamic(d, names, tag_ids));
   }
+  if (auto tags = f.optional("machine_tags")) s.machine_tags = read_machine_tags(*tags, s, tag_ids);
 
   const Value start = f.required("start");
   s.start = read_configuration(start, s.machine);

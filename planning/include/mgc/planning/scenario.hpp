@@ -69,6 +69,15 @@ struct UwbTagSpec {
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  //!< in the obstacle's frame [m]
 };
 
+//! A UWB tag fixed to the machine itself: a second source of its pose beside the encoders
+//! (docs/diagnostics.md "Machine tags").
+struct MachineTagSpec {
+  int id = 0;                                            //!< 0..255, unique in the scenario (obstacle tags too)
+  std::string body;                                      //!< tag_mount_problem() accepts it (machine_tags.hpp)
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  //!< in that body's or frame's axes, from its origin [m]
+  SourceRef ref;                                         //!< the entry's `body` field, for messages
+};
+
 struct DynamicObstacleSpec {
   DynamicObstacle obstacle;
   std::vector<Keyframe> motion;  //!< strictly increasing t_s, at least one key
@@ -165,6 +174,7 @@ struct Scenario {
   std::optional<TaskSpec> task;     //!< cranes
   std::vector<StaticObstacle> obstacles;
   std::vector<DynamicObstacleSpec> dynamic_obstacles;
+  std::vector<MachineTagSpec> machine_tags;  //!< may be empty: no tag on the machine
   JointVector start;
   JointVector goal;
   SourceRef start_ref;
