@@ -25,6 +25,7 @@ const char* to_string(PlausibilityFault fault) noexcept {
     case PlausibilityFault::JointNotFollowing: return "JointNotFollowing";
     case PlausibilityFault::JointRunaway: return "JointRunaway";
     case PlausibilityFault::ValveNotObeying: return "ValveNotObeying";
+    case PlausibilityFault::PoseDisagrees: return "PoseDisagrees";
   }
   return "unknown";
 }

@@ -52,6 +52,7 @@ const char* device_text(TransitionReason reason) noexcept {
     case TransitionReason::BusOff: return "can bus";
     case TransitionReason::UwbGatewayLost: return "uwb gateway";
     case TransitionReason::UwbSilent: return "uwb tags";
+    case TransitionReason::PoseDisagrees: return "uwb tag";
     case TransitionReason::WatchdogTripped: return "loop watchdog";
     default: return "";
   }
@@ -108,6 +109,7 @@ TransitionReason plausibility_reason(PlausibilityFault fault) noexcept {
     case PlausibilityFault::JointNotFollowing: return TransitionReason::JointNotFollowing;
     case PlausibilityFault::JointRunaway: return TransitionReason::JointRunaway;
     case PlausibilityFault::ValveNotObeying: return TransitionReason::ValveNotObeying;
+    case PlausibilityFault::PoseDisagrees: return TransitionReason::PoseDisagrees;
   }
   return TransitionReason::None;
 }
@@ -182,6 +184,7 @@ const char* to_string(TransitionReason reason) noexcept {
     case TransitionReason::CutoffLost: return "CutoffLost";
     case TransitionReason::CutoffFailed: return "CutoffFailed";
     case TransitionReason::CutoffNotReady: return "CutoffNotReady";
+    case TransitionReason::PoseDisagrees: return "PoseDisagrees";
   }
   return "unknown";
 }

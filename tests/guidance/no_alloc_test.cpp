@@ -11,6 +11,7 @@
 #include "mgc/guidance/diagnostics.hpp"
 #include "mgc/guidance/online.hpp"
 #include "mgc/guidance/trajectory.hpp"
+#include "mgc/planning/io/scenario_loader.hpp"
 
 using namespace mgc::guidance;
 
@@ -109,4 +110,37 @@ TEST_CASE("the plausibility monitor's cycle, its findings and its reset do not a
   }
   CHECK(mgc::test::allocation_count() == before);
   CHECK(findings > 0);
+}
+
+TEST_CASE("MachineTagCheck::update does not allocate", "[unit]") {
+  const mgc::planning::Scenario scenario =
+      mgc::planning::io::load_scenario(std::string(MGC_SOURCE_DIR) + "/scenarios/thesis-steel-frame.yaml");
+  const auto model = mgc::planning::build_model(scenario);
+  const std::array<MachineTag, 2> tags{MachineTag{200, mgc::planning::resolve_tag_mount(*model, "boom_tip"), Eigen::Vector3d::Zero()},
+                                       MachineTag{201, mgc::planning::resolve_tag_mount(*model, "superstructure"), Eigen::Vector3d::Zero()}};
+  MachineTagCheck check(*model, tags);
+  std::array<MachineTagFix, 3> fixes{};
+  fixes[0].id = 200;
+  fixes[1].id = 201;
+  fixes[2].id = 5;
+  MachineTagInputs in;
+  in.joints_valid = true;
+  for (int j = 0; j < model->dof(); ++j) in.position[static_cast<std::size_t>(j)] = scenario.start[j];
+  in.fixes = fixes;
+  const long before = mgc::test::allocation_count();
+  for (int c = 1; c <= 2000; ++c) {
+    in.now_us = c * 10'000;
+    in.joints_t_us = in.now_us;
+    in.position[0] += 1e-4;
+    for (std::size_t k = 0; k < fixes.size(); ++k) {
+      fixes[k].updated = c % 10 == static_cast<int>(k);
+      fixes[k].t_us = in.now_us;
+      fixes[k].quality = c % 100 < 90 ? 2 : 15;
+      fixes[k].position_m = {static_cast<double>(c % 7), 1.0, 2.0};  // off from the model: the counts run
+    }
+    (void)check.update(in);
+    if (check.result().disagrees) check.reset();
+  }
+  CHECK(mgc::test::allocation_count() == before);
+  CHECK(check.judged() > 100);
 }

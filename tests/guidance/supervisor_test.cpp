@@ -644,6 +644,8 @@ std::vector<SensingLoss> sensing_losses(const SupervisorConfig& config) {
        2, "valve 2"},
       {"valve counter not obeying", plausibility(PlausibilityFault::ValveNotObeying, -1),
        TransitionReason::ValveNotObeying, -1, "valve"},
+      {"machine tag disagrees", plausibility(PlausibilityFault::PoseDisagrees, 200), TransitionReason::PoseDisagrees, 200,
+       "uwb tag 200"},
   };
 }
 
@@ -1199,7 +1201,8 @@ TEST_CASE("names of states, reasons and outcomes", "[unit]") {
   CHECK(std::string(to_string(CommandOutcome::RejectedLatched)) == "RejectedLatched");
   CHECK(std::string(to_string(TransitionReason::EncoderImplausible)) == "EncoderImplausible");
   CHECK(std::string(to_string(TransitionReason::CutoffNotReady)) == "CutoffNotReady");
-  for (int r = 0; r <= static_cast<int>(TransitionReason::CutoffNotReady); ++r) {
+  CHECK(std::string(to_string(TransitionReason::PoseDisagrees)) == "PoseDisagrees");
+  for (int r = 0; r <= static_cast<int>(TransitionReason::PoseDisagrees); ++r) {
     CAPTURE(r);
     CHECK(std::string(to_string(static_cast<TransitionReason>(r))) != "unknown");
     CHECK(std::strlen(to_string(static_cast<TransitionReason>(r))) < kTransitionDetailChars);

@@ -7,6 +7,8 @@
 #include <span>
 
 #include "mgc/limits.hpp"
+#include "mgc/planning/machine_model.hpp"
+#include "mgc/planning/machine_tags.hpp"
 
 //! Plausibility of the machine's sensors and actuators (docs/diagnostics.md): every cycle, each
 //! joint's measured motion against what its valve command and a bracketing actuator model allow,
@@ -23,6 +25,7 @@ enum class PlausibilityFault : std::uint8_t {
   JointNotFollowing,  //!< the joint moves less than its command allows (jammed, valve, or encoder)
   JointRunaway,       //!< the joint moves more than its command allows, or moves while commanded to stop
   ValveNotObeying,    //!< the valve's applied spools or its command counter do not follow the commands
+  PoseDisagrees,      //!< a machine tag's fixes disagree with forward kinematics of the encoders (MachineTagCheck)
 };
 [[nodiscard]] const char* to_string(PlausibilityFault fault) noexcept;
 
@@ -181,6 +184,122 @@ class PlausibilityMonitor {
   std::int64_t counter_change_us_ = 0;
   std::uint32_t sent_at_change_ = 0;
   double peak_window_ratio_ = 0.0;
+};
+
+//! The machine's own UWB tags against forward kinematics of its encoders (docs/diagnostics.md
+//! "Machine tags"): a second, independent source of the pose, which sees an encoder that is stuck
+//! or lies slowly while its joint holds or moves. Defaults and their reasons in the doc.
+struct MachineTagCheckConfig {
+  //! A fix is judged against sigma_factor × its 1-sigma (quality × 10 cm, docs/protocol.md). [-]
+  double sigma_factor = 2.0;
+  //! What the model may be off by at the tag: boom deflection under load, geometry and mounting
+  //! tolerances. The simulator's machine is rigid; a real one sets its own deflection here. [m]
+  double model_allowance_m = 0.15;
+  //! A fix reaches the controller between fix_age_min_us and fix_age_max_us after the tag was
+  //! ranged (docs/protocol.md: under 50 ms). It is compared with the encoders at the middle; half
+  //! the span plus encoder_age_us (a sample answers the previous SYNC) is the time offset. [µs]
+  std::int64_t fix_age_min_us = 0;
+  std::int64_t fix_age_max_us = 50'000;
+  std::int64_t encoder_age_us = 10'000;
+  //! This many consecutive judged fixes beyond their threshold are a finding. At 10 Hz: 0.3 s
+  //! from the first to the last. [-]
+  int disagree_fixes = 4;
+  //! No fix of a tag for this long: stale (docs/protocol.md); an alert, and the tag is not judged. [µs]
+  std::int64_t stale_us = 500'000;
+};
+
+//! One tag on the machine, resolved against the model (planning::resolve_tag_mount).
+struct MachineTag {
+  std::uint8_t id = 0;
+  planning::TagMount mount{};
+  Eigen::Vector3d local_m = Eigen::Vector3d::Zero();  //!< in the mount's axes [m]
+};
+
+//! A tag's latest fix, as the Hal's snapshot holds it (TagReading).
+struct MachineTagFix {
+  std::uint8_t id = 0;
+  bool updated = false;                  //!< a new fix this cycle
+  std::array<double, 3> position_m{};    //!< site frame [m]
+  std::uint8_t quality = 0;              //!< 1..14: 1-sigma <= quality × 10 cm; 15 unknown; 0 no fix
+  std::int64_t t_us = 0;                 //!< receive time [µs]
+};
+
+//! One cycle's inputs.
+struct MachineTagInputs {
+  std::int64_t now_us = 0;
+  bool joints_valid = false;                      //!< every joint has a valid sample
+  std::int64_t joints_t_us = 0;                   //!< receive time of the oldest of them [µs]
+  std::array<double, kMaxJoints> position{};      //!< measured, as the model takes them [rad | m]
+  std::span<const MachineTagFix> fixes;           //!< every tag the Hal tracks; others' are ignored
+};
+
+struct MachineTagResult {
+  bool disagrees = false;        //!< latched until reset()
+  int tag_id = -1;               //!< the tag that disagrees
+  //! Bit j: joint j moves that tag (the joints whose encoders it checks).
+  std::uint32_t joints_seen = 0;
+  std::int64_t detected_us = 0;  //!< [µs]
+  double residual_m = 0.0;       //!< the last disagreeing fix's distance from its prediction [m]
+  double threshold_m = 0.0;      //!< and its threshold [m]
+};
+
+class MachineTagCheck {
+ public:
+  static constexpr std::size_t kHistory = 64;  //!< encoder samples kept to meet a late fix: 0.64 s at 100 Hz
+
+  //! The model must outlive the check. Start-up only: throws std::invalid_argument for more than
+  //! planning::kMaxMachineTags tags, an unresolved mount, or a configuration out of range.
+  MachineTagCheck(const planning::MachineModel& model, std::span<const MachineTag> tags, const MachineTagCheckConfig& config = {});
+
+  //! One cycle. RT-safe: no allocation, no throw. Returns the latched result.
+  const MachineTagResult& update(const MachineTagInputs& in) noexcept;
+
+  //! Forgets the latched finding, the counts and the history: after an operator's acknowledgement.
+  void reset() noexcept;
+
+  [[nodiscard]] const MachineTagResult& result() const noexcept { return result_; }
+  [[nodiscard]] std::size_t num_tags() const noexcept { return n_; }
+  //! Tags without a fix for stale_us (never seen counts from the first update). [-]
+  [[nodiscard]] std::size_t stale_count() const noexcept { return stale_count_; }
+  //! The first stale tag's id, or -1.
+  [[nodiscard]] int stale_tag() const noexcept { return stale_tag_; }
+  //! Fixes judged and fixes not judged (quality unknown, no encoder sample near their time). [-]
+  [[nodiscard]] std::uint64_t judged() const noexcept { return judged_; }
+  [[nodiscard]] std::uint64_t not_judged() const noexcept { return not_judged_; }
+  //! Largest residual/threshold of any judged fix since reset (1 = at the threshold). [-]
+  [[nodiscard]] double peak_ratio() const noexcept { return peak_ratio_; }
+  [[nodiscard]] const MachineTagCheckConfig& config() const noexcept { return config_; }
+
+ private:
+  struct Sample {
+    std::int64_t t_us = 0;
+    planning::JointVector q;
+  };
+  struct TagState {
+    MachineTag tag{};
+    std::int64_t last_fix_us = 0;  //!< 0: none yet
+    int disagreeing = 0;           //!< consecutive judged fixes beyond their threshold
+  };
+
+  //! Judges one fix of tag k; false when it could not be judged.
+  bool judge(TagState& tag, const MachineTagFix& fix, std::int64_t now_us) noexcept;
+
+  const planning::MachineModel& model_;
+  MachineTagCheckConfig config_;
+  std::array<TagState, planning::kMaxMachineTags> tags_{};
+  std::size_t n_ = 0;
+  std::array<Sample, kHistory> history_{};
+  std::size_t head_ = 0;
+  std::size_t count_ = 0;
+  planning::Kinematics kinematics_{};
+  MachineTagResult result_{};
+  bool started_ = false;
+  std::int64_t start_us_ = 0;
+  std::size_t stale_count_ = 0;
+  int stale_tag_ = -1;
+  std::uint64_t judged_ = 0;
+  std::uint64_t not_judged_ = 0;
+  double peak_ratio_ = 0.0;
 };
 
 }  // namespace mgc::guidance

@@ -82,6 +82,9 @@ enum class TransitionReason : std::uint8_t {
   CutoffLost,            //!< the cut-off node's heartbeat is lost
   CutoffFailed,          //!< it reports a fault, or pilot pressure while it holds the pilot cut
   CutoffNotReady,        //!< no pilot pressure while the machine is in use (not enabled, or it cut on its own)
+  //! A tag on the machine disagrees with forward kinematics of the encoders (MachineTagCheck):
+  //! one of the encoders it sees is stuck or lies (value: the tag id).
+  PoseDisagrees,
 };
 [[nodiscard]] const char* to_string(TransitionReason reason) noexcept;
 
