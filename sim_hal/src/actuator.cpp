@@ -42,4 +42,9 @@ void HydraulicActuator::step(double spool_fraction, double dt_s) noexcept {
   position_ = p1;
 }
 
+void HydraulicActuator::displace(double delta) noexcept {
+  position_ += delta;
+  if (!params_.continuous) position_ = std::clamp(position_, params_.position_min, params_.position_max);
+}
+
 }  // namespace mgc::sim

@@ -30,6 +30,7 @@ constexpr KindInfo kKinds[] = {
     {FaultKind::ValveIgnore, "valve-ignore", FaultTarget::Kind::None, ""},
     {FaultKind::EncoderOffset, "encoder-offset", FaultTarget::Kind::Joint, "JOINT"},
     {FaultKind::CutoffFail, "cutoff-fail", FaultTarget::Kind::None, ""},
+    {FaultKind::JointCreep, "joint-creep", FaultTarget::Kind::Joint, "JOINT"},
 };
 
 [[noreturn]] void fail(std::string_view text, const std::string& what) {
@@ -151,9 +152,10 @@ Fault parse_fault_impl(std::string_view text, std::span<const std::string> joint
     } else if (key == "delay_ms" && fault.kind == FaultKind::FrameDelay) {
       fault.delay_ms = parse_number(text, value, "delay_ms");
       if (fault.delay_ms > 10'000.0) fail(text, "delay_ms: expected at most 10000, got \"" + std::string(value) + "\"");
-    } else if ((key == "offset" || key == "rate") && fault.kind == FaultKind::EncoderOffset) {
+    } else if (((key == "offset" || key == "rate") && fault.kind == FaultKind::EncoderOffset) ||
+               (key == "rate" && fault.kind == FaultKind::JointCreep)) {
       const std::size_t j = static_cast<std::size_t>(fault.target.index);
-      if (j >= joints.size()) fail(text, "encoder-offset needs the machine's joints to know the unit of its values");
+      if (j >= joints.size()) fail(text, std::string(info->name) + " needs the machine's joints to know the unit of its values");
       const bool revolute = joints[j].type == planning::JointType::Revolute;
       const double si = parse_signed(text, value, key == "offset" ? "offset" : "rate") * (revolute ? std::numbers::pi / 180.0 : 1.0);
       (key == "offset" ? fault.offset : fault.offset_rate) = si;
@@ -162,12 +164,14 @@ Fault parse_fault_impl(std::string_view text, std::span<const std::string> joint
                      (fault.kind == FaultKind::TagNoise       ? " (sigma_m=M)"
                       : fault.kind == FaultKind::FrameDelay   ? " (delay_ms=MS)"
                       : fault.kind == FaultKind::EncoderOffset ? " (offset=X, rate=X per s; deg or m)"
+                      : fault.kind == FaultKind::JointCreep    ? " (rate=X per s; deg or m)"
                                                                : " (none)"));
     }
   }
   if (fault.kind == FaultKind::EncoderOffset && fault.offset == 0.0 && fault.offset_rate == 0.0) {
     fail(text, "encoder-offset needs offset=X or rate=X (deg or m, not both zero)");
   }
+  if (fault.kind == FaultKind::JointCreep && fault.offset_rate == 0.0) fail(text, "joint-creep needs rate=X (deg or m per s, not zero)");
   return fault;
 }
 

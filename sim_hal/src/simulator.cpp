@@ -43,6 +43,11 @@ std::vector<SimTag> scenario_tags(const planning::Scenario& scenario) {
       tags.push_back({static_cast<std::uint8_t>(t.id), i, t.position_m});
     }
   }
+  for (const planning::MachineTagSpec& t : scenario.machine_tags) {
+    SimTag tag{static_cast<std::uint8_t>(t.id), 0, t.position_m};
+    tag.on_machine = true;
+    tags.push_back(tag);
+  }
   return tags;
 }
 
@@ -53,7 +58,12 @@ hal::BusPlan bus_plan_for(const planning::Scenario& scenario) {
 }
 
 Simulator::Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimConfig config)
-    : scenario_(scenario), bus_(bus), config_(std::move(config)), plan_(bus_plan_for(scenario)), random_(config_.seed) {
+    : scenario_(scenario),
+      bus_(bus),
+      config_(std::move(config)),
+      plan_(bus_plan_for(scenario)),
+      random_(config_.seed),
+      machine_tag_random_(config_.seed ^ 0x6d616368696e65ULL) {
   if (!(config_.physics_rate_hz >= 100.0 && config_.physics_rate_hz <= 10'000.0)) {
     throw std::invalid_argument("physics rate must be 100..10000 Hz");
   }
@@ -81,6 +91,16 @@ Simulator::Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimCo
   cutoff_node_ = num_nodes_;
   nodes_[num_nodes_++].node_id = plan_.cutoff_node_id;
   tags_ = scenario_tags(scenario);
+  if (!scenario.machine_tags.empty()) {
+    model_ = planning::build_model(scenario);
+    for (SimTag& t : tags_) {
+      if (!t.on_machine) continue;
+      const auto spec = std::find_if(scenario.machine_tags.begin(), scenario.machine_tags.end(),
+                                     [&](const planning::MachineTagSpec& m) { return m.id == t.tag_id; });
+      t.mount = planning::resolve_tag_mount(*model_, spec->body);
+      if (t.mount.index < 0) throw std::invalid_argument("machine tag " + std::to_string(t.tag_id) + ": no body or frame '" + spec->body + "'");
+    }
+  }
   next_fix_us_.assign(tags_.size(), 0);
   tag_sequence_.assign(tags_.size(), 0);
 }
@@ -89,10 +109,10 @@ double Simulator::sim_time_s(std::int64_t now_us) const noexcept {
   return static_cast<double>(now_us - start_us_) / kUsPerS;
 }
 
-double Simulator::gaussian() noexcept {
+double Simulator::gaussian(planning::Random& random) noexcept {
   // Box-Muller on the planner's generator, so a seed fixes every noise sample on any libstdc++.
-  const double u1 = 1.0 - random_.uniform();
-  const double u2 = random_.uniform();
+  const double u1 = 1.0 - random.uniform();
+  const double u2 = random.uniform();
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
 }
 
@@ -122,6 +142,12 @@ Eigen::Isometry3d Simulator::obstacle_pose(std::size_t i) const noexcept {
 }
 
 Eigen::Vector3d Simulator::tag_position(const SimTag& tag) const noexcept {
+  if (tag.on_machine) {
+    planning::JointVector q(static_cast<Eigen::Index>(plan_.num_joints));
+    for (std::size_t j = 0; j < plan_.num_joints; ++j) q[static_cast<Eigen::Index>(j)] = actuators_[j].position();
+    model_->forward_kinematics(q, kinematics_);
+    return planning::tag_position(kinematics_, tag.mount, tag.position_m);
+  }
   return obstacle_pose(tag.obstacle) * tag.position_m;
 }
 
@@ -225,6 +251,11 @@ void Simulator::advance_physics(std::int64_t now_us) noexcept {
       double& spool = truth_.spool[j];
       spool = valve_state_ == ValveState::Active ? std::clamp(target, spool - ramp, spool + ramp) : 0.0;
       actuators_[j].step(pilot ? spool : 0.0, dt_s);
+      // A spool that does not quite centre, or a load that drags the joint: only pilot pressure
+      // off (all spools sprung to neutral, the brakes set) stops it.
+      if (const Fault* creep = find_fault(FaultKind::JointCreep, FaultTarget::Kind::Joint, static_cast<int>(j)); creep && pilot) {
+        actuators_[j].displace(creep->offset_rate * dt_s);
+      }
     }
     physics_us_ += physics_step_us_;
   }
@@ -484,10 +515,11 @@ void Simulator::emit_uwb(std::int64_t now_us) noexcept {
     const Fault* noisy = find_fault(FaultKind::TagNoise, FaultTarget::Kind::Tag, tags_[t].tag_id);
     const double extra = noisy != nullptr ? noisy->sigma_m : 0.0;
     const Eigen::Vector3d truth = tag_position(tags_[t]);
+    planning::Random& random = tags_[t].on_machine ? machine_tag_random_ : random_;
     hal::pdo::UwbTagPosition fix{plan_.uwb_gateway_node_id, tags_[t].tag_id, {}, tag_sequence_[t], uwb_quality(sigma)};
     bool in_range = true;
     for (int a = 0; a < 3; ++a) {
-      const double noise = sigma * gaussian() + extra * gaussian();
+      const double noise = sigma * gaussian(random) + extra * gaussian(random);
       const auto c = hal::pdo::metres_to_uwb_counts(truth[a] + noise);
       in_range = in_range && c.ok();
       fix.position_cm[static_cast<std::size_t>(a)] = c.value;
@@ -496,7 +528,7 @@ void Simulator::emit_uwb(std::int64_t now_us) noexcept {
       fix.quality = hal::pdo::kUwbQualityNoFix;
       fix.position_cm.fill(hal::pdo::kUwbNoPosition);
     }
-    if (random_.uniform() < config_.uwb.dropout_probability) {
+    if (random.uniform() < config_.uwb.dropout_probability) {
       ++counters_.tag_fixes_dropped;
       continue;
     }

@@ -37,8 +37,11 @@ class SimRig {
   //! Clock time of a simulation time [µs].
   static constexpr std::int64_t at_sim_s(double t_s) { return kSimZeroUs + static_cast<std::int64_t>(t_s * 1e6); }
 
-  explicit SimRig(const char* scenario_file, sim::SimConfig config = quiet_config(), const std::string& bus_name = "rig")
+  //! edit: changes the scenario before the machine is built (a test's own tags on a shipped site).
+  explicit SimRig(const char* scenario_file, sim::SimConfig config = quiet_config(), const std::string& bus_name = "rig",
+                  const std::function<void(planning::Scenario&)>& edit = {})
       : scenario(planning::io::load_scenario(scenario_path(scenario_file))), clock(1'000'000) {
+    if (edit) edit(scenario);
     auto a = hal::open_can_bus("loop:" + bus_name, &clock);
     auto b = hal::open_can_bus("loop:" + bus_name, &clock);
     auto c = hal::open_can_bus("loop:" + bus_name, &clock);

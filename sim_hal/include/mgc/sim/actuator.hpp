@@ -28,6 +28,10 @@ class HydraulicActuator {
   //! Advances by dt_s with the spool held at spool_fraction. RT-safe.
   void step(double spool_fraction, double dt_s) noexcept;
 
+  //! Moves the joint by delta outside its drive (a creep the valve does not cause), stopped by the
+  //! end stops. RT-safe.
+  void displace(double delta) noexcept;
+
   [[nodiscard]] double position() const noexcept { return position_; }        //!< [rad | m]
   [[nodiscard]] double velocity() const noexcept { return velocity_; }        //!< [rad/s | m/s]
   [[nodiscard]] double acceleration() const noexcept { return acceleration_; }  //!< of the last step

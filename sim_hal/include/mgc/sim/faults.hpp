@@ -24,6 +24,7 @@ enum class FaultKind : std::uint8_t {
   ValveIgnore,     //!< the valve node ignores new commands and keeps applying the last one
   EncoderOffset,   //!< the encoder lies: it reports the true position plus offset + rate × time since the fault began
   CutoffFail,      //!< the cut-off's dump valve sticks closed: pilot pressure stays whatever the node is told
+  JointCreep,      //!< the joint creeps at offset_rate, whatever its spool, while pilot pressure is on
 };
 
 [[nodiscard]] const char* to_string(FaultKind kind) noexcept;
@@ -42,7 +43,8 @@ struct Fault {
   double duration_s = std::numeric_limits<double>::infinity();  //!< [s]
   double sigma_m = 2.0;   //!< TagNoise: extra 1-sigma noise per axis [m]
   double delay_ms = 50.0; //!< FrameDelay [ms]
-  //! EncoderOffset: the lie at the fault's start, and how fast it grows; in the joint's unit as the
+  //! EncoderOffset: the lie at the fault's start, and how fast it grows (JointCreep: the creep's
+  //! speed); in the joint's unit as the
   //! fault text gives it (deg for a revolute joint, m for a prismatic one), stored in SI. [rad | m, /s]
   double offset = 0.0;
   double offset_rate = 0.0;

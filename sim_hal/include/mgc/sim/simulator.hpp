@@ -6,12 +6,14 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "mgc/hal/bus_plan.hpp"
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/canopen.hpp"
 #include "mgc/hal/device_pdos.hpp"
+#include "mgc/planning/machine_tags.hpp"
 #include "mgc/planning/random.hpp"
 #include "mgc/planning/scenario.hpp"
 #include "mgc/sim/actuator.hpp"
@@ -73,11 +75,13 @@ struct SimCounters {
   hal::CodecCounters codec{};
 };
 
-//! A tag on one of the scenario's dynamic obstacles.
+//! A tag on one of the scenario's dynamic obstacles, or on the machine itself.
 struct SimTag {
   std::uint8_t tag_id = 0;
   std::size_t obstacle = 0;                               //!< index into scenario.dynamic_obstacles
-  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   //!< in the obstacle's frame [m]
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   //!< in the obstacle's (or mount's) frame [m]
+  bool on_machine = false;                                //!< a machine tag: mount, not obstacle
+  planning::TagMount mount{};                             //!< resolved by the Simulator
 };
 
 class Simulator {
@@ -101,7 +105,8 @@ class Simulator {
   [[nodiscard]] const std::vector<SimTag>& tags() const noexcept { return tags_; }
   //! Pose of dynamic obstacle i at the current simulation time.
   [[nodiscard]] Eigen::Isometry3d obstacle_pose(std::size_t i) const noexcept;
-  //! World position of a tag at the current simulation time [m].
+  //! World position of a tag at the current simulation time; a machine tag's from the true joint
+  //! positions, not from what the encoders report [m].
   [[nodiscard]] Eigen::Vector3d tag_position(const SimTag& tag) const noexcept;
   [[nodiscard]] const HydraulicActuator& actuator(std::size_t joint) const noexcept { return actuators_[joint]; }
   [[nodiscard]] double time_s() const noexcept { return truth_.t_s; }
@@ -141,7 +146,8 @@ class Simulator {
                                   int index = -1) const noexcept;
   [[nodiscard]] const Fault* find_fault(FaultKind kind, FaultTarget::Kind target, int index) const noexcept;
   [[nodiscard]] double sim_time_s(std::int64_t now_us) const noexcept;
-  [[nodiscard]] double gaussian() noexcept;
+  [[nodiscard]] double gaussian() noexcept { return gaussian(random_); }
+  [[nodiscard]] static double gaussian(planning::Random& random) noexcept;
   [[nodiscard]] Node* node(std::uint8_t node_id) noexcept;
 
   const planning::Scenario& scenario_;
@@ -151,6 +157,11 @@ class Simulator {
   planning::Random random_;
   std::array<HydraulicActuator, hal::kMaxBusJoints> actuators_{};
   std::vector<SimTag> tags_;
+  //! For the machine's own tags (none: null): the model's forward kinematics, and a noise stream
+  //! of their own, so that adding them leaves every other noise sample as it was.
+  std::unique_ptr<planning::MachineModel> model_;
+  mutable planning::Kinematics kinematics_{};
+  planning::Random machine_tag_random_;
 
   bool started_ = false;
   std::int64_t start_us_ = 0;
@@ -198,7 +209,7 @@ class Simulator {
   std::array<hal::TimedFrame, 64> rx_{};
 };
 
-//! The tags of a scenario's dynamic obstacles, in file order.
+//! The tags of a scenario's dynamic obstacles, then its machine tags, in file order.
 [[nodiscard]] std::vector<SimTag> scenario_tags(const planning::Scenario& scenario);
 
 //! The bus plan of a scenario's machine kind, checked against its joint names.
