@@ -187,10 +187,16 @@ void Simulator::step(std::int64_t now_us) noexcept {
     started_ = true;
     start_us_ = now_us;
     physics_us_ = now_us;
+    // Spread the tags over one period, as a TDMA schedule would: the obstacles' tags as without
+    // machine tags (so adding these changes no obstacle fix), the machine's own between them.
+    std::size_t obstacle_tags = 0;
+    for (const SimTag& tag : tags_) obstacle_tags += tag.on_machine ? 0 : 1;
+    const std::size_t machine_tags = tags_.size() - obstacle_tags;
     for (std::size_t t = 0; t < tags_.size(); ++t) {
-      // Spread the tags over one period, as a TDMA schedule would.
-      next_fix_us_[t] = now_us + static_cast<std::int64_t>(kUsPerS / config_.uwb.rate_hz * static_cast<double>(t) /
-                                                           static_cast<double>(tags_.size()));
+      const bool machine = tags_[t].on_machine;
+      const double slot = machine ? static_cast<double>(t - obstacle_tags) + 0.5 : static_cast<double>(t);
+      const double slots = static_cast<double>(machine ? machine_tags : obstacle_tags);
+      next_fix_us_[t] = now_us + static_cast<std::int64_t>(kUsPerS / config_.uwb.rate_hz * slot / slots);
     }
     for (std::size_t i = 0; i < num_nodes_; ++i) boot(nodes_[i], now_us);
   }

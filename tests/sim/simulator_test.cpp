@@ -539,3 +539,76 @@ TEST_CASE("encoder-offset: the lie appears in the Hal's position as configured, 
   // The truth does not move: only the reports do.
   for (std::size_t j = 0; j < 4; ++j) CHECK(rig.sim->truth().position[j] == rig.scenario.start[static_cast<Eigen::Index>(j)]);
 }
+
+TEST_CASE("machine tags are reported where the true joints put them, whatever the encoders say", "[sim][uwb]") {
+  // A stuck telescope encoder while the telescope creeps out at 0.1 m/s: the encoder stands, the
+  // boom-tip tag moves with the truth.
+  const auto tip_tag = [](planning::Scenario& s) {
+    planning::MachineTagSpec tag;
+    tag.id = 200;
+    tag.body = "boom_tip";
+    tag.position_m = Eigen::Vector3d(0.0, 0.0, -0.5);
+    s.machine_tags.push_back(tag);
+  };
+  SimRig rig("thesis-steel-frame.yaml", with_faults({"encoder-stuck:boom_length@1", "joint-creep:boom_length@1,rate=0.1"}), "rig",
+             tip_tag);
+  REQUIRE(rig.sim->tags().size() == 4);
+  REQUIRE(rig.sim->tags().back().on_machine);
+  rig.start();
+  rig.run(3'000'000);  // 3.25 s: 2.25 s of creep
+  const hal::SensorSnapshot& s = *rig.last;
+  const double truth_m = rig.sim->truth().position[2];
+  CHECK(truth_m - rig.scenario.start[2] == Approx(0.225).margin(0.002));
+  // Stuck at its first sample after the fault began: at most a SYNC period (1 mm) of creep in it.
+  CHECK(std::abs(s.joints[2].position - rig.scenario.start[2]) < 1.1e-3);
+  const hal::TagReading* r = s.find_tag(200);
+  REQUIRE(r != nullptr);
+  CHECK(r->valid);
+  CHECK(r->fixes >= 30);
+  // The truth at the fix's time: at most 50 ms latency and 100 ms between fixes behind, at 0.1 m/s.
+  const auto model = planning::build_model(rig.scenario);
+  planning::JointVector q = rig.scenario.start;
+  planning::Kinematics k;
+  const auto tip_at = [&](double telescope_m) {
+    q[2] = telescope_m;
+    model->forward_kinematics(q, k);
+    return planning::tag_position(k, planning::resolve_tag_mount(*model, "boom_tip"), Eigen::Vector3d(0.0, 0.0, -0.5));
+  };
+  const Eigen::Vector3d reported(r->position_m[0], r->position_m[1], r->position_m[2]);
+  CHECK((reported - tip_at(truth_m)).norm() < 0.016);
+  CHECK((reported - tip_at(rig.scenario.start[2])).norm() > 0.2);
+  // The joint-creep stops with pilot pressure.
+  rig.hal->set_pilot_enabled(false);
+  rig.run(200'000);
+  const double cut_m = rig.sim->truth().position[2];
+  rig.run(1'000'000);
+  CHECK(rig.sim->truth().position[2] == cut_m);
+}
+
+TEST_CASE("machine tags leave the obstacles' tag noise as it was", "[sim][uwb]") {
+  sim::SimConfig config = SimRig::quiet_config();
+  config.uwb.noise_sigma_m = 0.15;
+  config.seed = 9;
+  const auto first_fixes = [&](bool with_tag) {
+    SimRig rig("thesis-steel-frame.yaml", config, "rig", [with_tag](planning::Scenario& s) {
+      if (!with_tag) return;
+      planning::MachineTagSpec tag;
+      tag.id = 200;
+      tag.body = "superstructure";
+      s.machine_tags.push_back(tag);
+    });
+    rig.start();
+    std::vector<double> seen;
+    for (int c = 0; c < 60; ++c) {
+      rig.run(10'000);
+      for (const std::uint8_t id : {1, 2, 3}) {
+        const hal::TagReading* r = rig.last->find_tag(id);
+        if (r != nullptr && r->updated) seen.push_back(r->position_m[0]);
+      }
+    }
+    return seen;
+  };
+  const std::vector<double> without = first_fixes(false);
+  REQUIRE(without.size() > 10);
+  CHECK(first_fixes(true) == without);
+}
