@@ -86,6 +86,16 @@ std::vector<guidance::PlausibilityJoint> plausibility_joints(const planning::Mac
   return joints;
 }
 
+//! The scenario's machine tags on the model (the loader accepted their mounts; a model without one
+//! is refused by MachineTagCheck).
+std::vector<guidance::MachineTag> machine_tag_list(const planning::Scenario& s, const planning::MachineModel& model) {
+  std::vector<guidance::MachineTag> tags;
+  for (const planning::MachineTagSpec& t : s.machine_tags) {
+    tags.push_back({static_cast<std::uint8_t>(t.id), planning::resolve_tag_mount(model, t.body), t.position_m});
+  }
+  return tags;
+}
+
 RateLimiter make_limiter(const planning::MachineModel& model) {
   const auto limits = rate_limits_from(model.joints(), JerkLimit::Off);
   return RateLimiter(std::span<const RateLimits>(limits.data(), static_cast<std::size_t>(model.dof())));
@@ -108,6 +118,7 @@ enum AlertKind : std::size_t {
   kAlertEnvelope,
   kAlertApproach,
   kAlertCutoff,
+  kAlertMachineTag,
 };
 
 std::unique_ptr<guidance::Envelope> make_envelope(const planning::Scenario& scenario, const planning::MachineModel& model) {
@@ -181,9 +192,14 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       stop_check_(*safety_world_, envelope_.get(), config_.stop_check),
       supervisor_(supervisor_config(config.supervisor, scenario_)),
       monitor_(plausibility_joints(*model_), config.plausibility),
+      tag_check_(*model_, machine_tag_list(scenario_, *model_), config.machine_tags),
       limiter_(make_limiter(*model_)),
       n_(model_->dof()) {
   if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
+  for (std::size_t k = 0; k < scenario_.machine_tags.size(); ++k) {
+    machine_tag_ids_[k] = static_cast<std::uint8_t>(scenario_.machine_tags[k].id);
+    machine_tag_fixes_[k].id = machine_tag_ids_[k];
+  }
   if (config.plan_iterations_per_cycle < 1 || config.escape_iterations_per_cycle < 1) {
     throw std::invalid_argument("controller: plan_iterations_per_cycle and escape_iterations_per_cycle must be >= 1");
   }
@@ -669,11 +685,49 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
   }
   stats_.plausibility_peak_ratio = std::max(stats_.plausibility_peak_ratio, monitor_.peak_window_ratio());
 
+  // The machine's own tags against forward kinematics of the encoders: a second source.
+  const std::size_t num_machine_tags = tag_check_.num_tags();
+  for (std::size_t k = 0; k < num_machine_tags; ++k) {
+    guidance::MachineTagFix& fix = machine_tag_fixes_[k];
+    const hal::TagReading* r = s.find_tag(machine_tag_ids_[k]);
+    fix.updated = r != nullptr && r->updated;
+    if (!fix.updated) continue;
+    fix.position_m = r->position_m;
+    fix.quality = r->quality;
+    fix.t_us = r->t_us;
+  }
+  guidance::MachineTagInputs tag_in;
+  tag_in.now_us = now_us_;
+  tag_in.joints_valid = joints_valid_;
+  std::int64_t oldest_us = now_us_;
+  for (int j = 0; j < n_; ++j) {
+    tag_in.position[static_cast<std::size_t>(j)] = q_unwrapped_[j];
+    oldest_us = std::min(oldest_us, s.joints[static_cast<std::size_t>(j)].t_us);
+  }
+  tag_in.joints_t_us = oldest_us;
+  tag_in.fixes = std::span<const guidance::MachineTagFix>(machine_tag_fixes_.data(), num_machine_tags);
+  const guidance::MachineTagResult& pose = tag_check_.update(tag_in);
+  stats_.machine_tag_peak_ratio = std::max(stats_.machine_tag_peak_ratio, tag_check_.peak_ratio());
+  stats_.machine_tag_fixes_judged = tag_check_.judged();
+  if (tag_check_.stale_count() > 0) ++stats_.machine_tag_stale_cycles;
+  guidance::PlausibilityFault finding = plausible.fault;
+  int finding_index = plausible.joint;
+  if (finding == guidance::PlausibilityFault::None && pose.disagrees) {
+    finding = guidance::PlausibilityFault::PoseDisagrees;
+    finding_index = pose.tag_id;
+  }
+  if (finding == guidance::PlausibilityFault::PoseDisagrees && stats_.plausibility_fault == guidance::PlausibilityFault::None) {
+    stats_.plausibility_fault = finding;
+    stats_.plausibility_joint = pose.tag_id;
+    stats_.plausibility_detected_us = pose.detected_us;
+    stats_.pose_joints_seen = pose.joints_seen;
+  }
+
   guidance::SupervisorInputs in;
   in.now_us = now_us_;
-  in.sensing = sensing_inputs(s);
-  in.sensing.plausibility = plausible.fault;
-  in.sensing.plausibility_joint = plausible.joint;
+  in.sensing = sensing_inputs(s, std::span<const std::uint8_t>(machine_tag_ids_.data(), num_machine_tags));
+  in.sensing.plausibility = finding;
+  in.sensing.plausibility_joint = finding_index;
   if (have_reading_) {
     in.safety.stop_check = check_.status;
     in.safety.warning_speed_scale = check_.speed_scale;
@@ -767,7 +821,10 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
   }
 
   // An acknowledged fault starts afresh: the machine is at rest and INIT checks every device again.
-  if (out.reset_latches) monitor_.reset();
+  if (out.reset_latches) {
+    monitor_.reset();
+    tag_check_.reset();
+  }
   const bool pilot = out.state != guidance::SupervisorState::Fault && !monitor_.result().cut_required;
   if (pilot_enabled_ && !pilot) ++stats_.pilot_cuts;
   pilot_enabled_ = pilot;
@@ -974,6 +1031,11 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
   for (const ObstacleTracker& t : trackers_) tracks_lost = tracks_lost || !t.valid(now_us_);
   raise(kAlertTracking, tracks_lost && supervisor_.state() != SupervisorState::Init, A::SEVERITY_WARN, A::SOURCE_SENSING,
         A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_NONE, kNaN, kNaN, -1);
+  // A machine tag without a fix for the stale time: its check is off until fixes return, which
+  // the operator must know (value: how many are stale; index: the first one's id).
+  raise(kAlertMachineTag, tag_check_.stale_count() > 0 && supervisor_.state() != SupervisorState::Init, A::SEVERITY_WARN,
+        A::SOURCE_SENSING, A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_NONE, static_cast<double>(tag_check_.stale_count()), kNaN,
+        tag_check_.stale_tag());
   snap_.num_alerts = 0;
   for (std::size_t k = 0; k < kAlertKinds && snap_.num_alerts < kSnapshotMaxAlerts; ++k) {
     if (alert_active_[k]) snap_.alerts[static_cast<std::size_t>(snap_.num_alerts++)] = alerts_[k];

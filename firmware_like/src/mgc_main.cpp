@@ -360,11 +360,22 @@ int main(int argc, char** argv) {
     if (st.paths_shortened > 0) std::printf("mgc: paths: %d repaired or escape paths shortened by %d waypoints\n", st.paths_shortened, st.waypoints_removed);
     {
       std::printf("mgc: diagnostics: %s", guidance::to_string(st.plausibility_fault));
-      if (st.plausibility_fault != guidance::PlausibilityFault::None) {
+      if (st.plausibility_fault == guidance::PlausibilityFault::PoseDisagrees) {
+        std::printf(" (uwb tag %d, joints", st.plausibility_joint);
+        for (int j = 0; j < controller.num_joints(); ++j) {
+          if ((st.pose_joints_seen >> static_cast<unsigned>(j)) & 1u) std::printf(" %s", scenario.machine.joints[static_cast<std::size_t>(j)].name.c_str());
+        }
+        std::printf(") at %.2f s", static_cast<double>(st.plausibility_detected_us - start_us) * 1e-6);
+      } else if (st.plausibility_fault != guidance::PlausibilityFault::None) {
         std::printf(" (joint %d) at %.2f s", st.plausibility_joint, static_cast<double>(st.plausibility_detected_us - start_us) * 1e-6);
       }
-      std::printf(", motion checks' peak %.0f %% of their threshold, pilot pressure cut %d times\n", 100.0 * st.plausibility_peak_ratio,
+      std::printf(", motion checks' peak %.0f %% of their threshold, pilot pressure cut %d times", 100.0 * st.plausibility_peak_ratio,
                   st.pilot_cuts);
+      if (controller.machine_tags().num_tags() > 0) {
+        std::printf(", machine tags: %" PRIu64 " fixes judged, peak %.0f %% of their threshold, stale in %" PRIu64 " cycles",
+                    st.machine_tag_fixes_judged, 100.0 * st.machine_tag_peak_ratio, st.machine_tag_stale_cycles);
+      }
+      std::printf("\n");
     }
     if (controller.has_envelope()) {
       std::printf("mgc: envelope: least distance of a monitored point to a limit while moving %.2f m, motions slowed toward a "

@@ -74,7 +74,7 @@ guidance::PlausibilityInputs plausibility_inputs(const hal::SensorSnapshot& s, s
   return in;
 }
 
-guidance::SensingInputs sensing_inputs(const hal::SensorSnapshot& snapshot) noexcept {
+guidance::SensingInputs sensing_inputs(const hal::SensorSnapshot& snapshot, std::span<const std::uint8_t> machine_tag_ids) noexcept {
   guidance::SensingInputs in;
   const std::size_t joints = std::min<std::size_t>(snapshot.num_joints, in.joint.size());
   for (std::size_t j = 0; j < joints; ++j) in.joint[j] = device_health(snapshot.joints[j].health);
@@ -84,6 +84,7 @@ guidance::SensingInputs sensing_inputs(const hal::SensorSnapshot& snapshot) noex
   in.uwb_gateway = device_health(snapshot.uwb_gateway.health);
   for (std::size_t i = 0; i < snapshot.num_tags; ++i) {
     const hal::TagReading& tag = snapshot.tags[i];
+    if (std::find(machine_tag_ids.begin(), machine_tag_ids.end(), tag.tag_id) != machine_tag_ids.end()) continue;
     if (tag.fixes > 0) in.uwb_last_fix_us = std::max(in.uwb_last_fix_us, tag.t_us);
   }
   return in;

@@ -2,7 +2,7 @@
 // The controller's cycle allocates nothing after construction: a whole lift through planning,
 // execution, a safety stop, waiting for the intruder, the re-plan and the goal, FCL queries and
 // the guidance snapshot included; and the working envelope's limiter, stop-check sweep and planning
-// rule, under a ceiling close above the boom tip.
+// rule, under a ceiling close above the boom tip; and the check of a tag on the boom tip.
 #include <catch2/catch.hpp>
 
 #include <memory>
@@ -49,7 +49,13 @@ Counted drive(SimRig& rig, firmware::Controller& controller) {
 TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re-plan and the goal", "[firmware][sim][alloc]") {
   sim::SimConfig config = SimRig::quiet_config();
   config.scenario_time_offset_s = 40.0;  // crane 2 swings into the lift (controller_test.cpp)
-  SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc");
+  // A tag on the boom tip: the machine tag check judges every fix.
+  SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc", [](planning::Scenario& s) {
+    planning::MachineTagSpec tag;
+    tag.id = 200;
+    tag.body = "boom_tip";
+    s.machine_tags.push_back(tag);
+  });
   rig.calibrate_valves();
   planning::Scenario scenario = rig.scenario;
   const auto model = planning::build_model(scenario);
@@ -71,6 +77,7 @@ TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re
   REQUIRE(st.replans >= 1);
   REQUIRE(st.goals_reached == 1);
   REQUIRE(st.envelope_cut_cycles > 0);
+  REQUIRE(st.machine_tag_fixes_judged > 1000);
   CHECK(counted->cycles > 30'000);
   CHECK(counted->allocations == 0);
 }

@@ -117,6 +117,22 @@ TEST_CASE("sensing inputs: each Hal health and valve state maps as docs/supervis
   CHECK(firmware::sensing_inputs(s).valve == ValveHealth::Missing);
 }
 
+TEST_CASE("sensing inputs: the machine's own tags do not keep the obstacles' UWB alive", "[unit]") {
+  hal::SensorSnapshot s;
+  s.num_tags = 2;
+  s.tags[0].tag_id = 200;  // on the boom tip
+  s.tags[0].fixes = 5;
+  s.tags[0].t_us = 900;
+  s.tags[1].tag_id = 3;    // on crane 2
+  s.tags[1].fixes = 2;
+  s.tags[1].t_us = 400;
+  const std::array<std::uint8_t, 1> machine{200};
+  CHECK(firmware::sensing_inputs(s, machine).uwb_last_fix_us == 400);
+  CHECK(firmware::sensing_inputs(s).uwb_last_fix_us == 900);
+  s.tags[1].fixes = 0;
+  CHECK(firmware::sensing_inputs(s, machine).uwb_last_fix_us == 0);
+}
+
 TEST_CASE("cut-off health: each row of the mapping in docs/supervisor.md", "[unit]") {
   using hal::pdo::CutoffReason;
   using hal::pdo::CutoffState;

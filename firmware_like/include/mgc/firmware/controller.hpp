@@ -112,6 +112,8 @@ struct ControllerConfig {
   guidance::RatedCapacityConfig rated_capacity{};
   //! The sensor and actuator plausibility checks (docs/diagnostics.md).
   guidance::PlausibilityConfig plausibility{};
+  //! The machine's own UWB tags against forward kinematics (docs/diagnostics.md "Machine tags").
+  guidance::MachineTagCheckConfig machine_tags{};
 };
 
 //! Operator commands of this cycle, already authenticated (command_auth.hpp).
@@ -160,9 +162,17 @@ struct ControllerStats {
   //! Times a moving obstacle was predicted to come within the stop margin of the machine at rest
   //! (the approach warning raised; each rise counts once).
   int approach_warnings = 0;
-  //! The plausibility monitor's finding (None: none) and when it was seen. [µs on the snapshot clock]
+  //! The plausibility monitor's finding (None: none) and when it was seen, or the machine tag
+  //! check's (PoseDisagrees), whichever came first. [µs on the snapshot clock]
   guidance::PlausibilityFault plausibility_fault = guidance::PlausibilityFault::None;
-  int plausibility_joint = -1;  //!< the joint it named; -1 for the valve's counter
+  //! The joint it named; -1 for the valve's counter; the tag id for PoseDisagrees.
+  int plausibility_joint = -1;
+  //! PoseDisagrees: bit j set when the tag sees joint j (one of their encoders is wrong).
+  std::uint32_t pose_joints_seen = 0;
+  //! Largest residual/threshold of any judged machine tag fix (1 = at the threshold). [-]
+  double machine_tag_peak_ratio = 0.0;
+  std::uint64_t machine_tag_fixes_judged = 0;  //!< [-]
+  std::uint64_t machine_tag_stale_cycles = 0;  //!< cycles with a machine tag stale (alerted, not judged) [-]
   std::int64_t plausibility_detected_us = 0;
   //! Largest share of its threshold any of the monitor's motion checks reached (1 = a fault). [-]
   double plausibility_peak_ratio = 0.0;
@@ -187,6 +197,7 @@ class Controller {
   [[nodiscard]] guidance::Supervisor& supervisor() noexcept { return supervisor_; }
   [[nodiscard]] const guidance::StopCheckResult& stop_check() const noexcept { return check_; }
   [[nodiscard]] const guidance::PlausibilityMonitor& plausibility() const noexcept { return monitor_; }
+  [[nodiscard]] const guidance::MachineTagCheck& machine_tags() const noexcept { return tag_check_; }
   //! The working-envelope limiter's verdict on the last command (nothing when the site has no envelope).
   [[nodiscard]] const guidance::EnvelopeResult& envelope() const noexcept { return envelope_result_; }
   [[nodiscard]] bool has_envelope() const noexcept { return envelope_ != nullptr; }
@@ -297,6 +308,9 @@ class Controller {
   guidance::RatedCapacityResult rcl_result_{};
   guidance::Supervisor supervisor_;
   guidance::PlausibilityMonitor monitor_;
+  guidance::MachineTagCheck tag_check_;
+  std::array<std::uint8_t, planning::kMaxMachineTags> machine_tag_ids_{};
+  std::array<guidance::MachineTagFix, planning::kMaxMachineTags> machine_tag_fixes_{};
   //! What the previous cycle commanded (the valve applies it now) and whether it kept pilot pressure.
   std::array<double, kMaxJoints> last_command_{};
   bool pilot_enabled_ = false;
@@ -334,7 +348,7 @@ class Controller {
   std::uint32_t plan_id_ = 0;
 
   // Alerts: one slot per kind, an id from raise to clear.
-  static constexpr std::size_t kAlertKinds = 10;
+  static constexpr std::size_t kAlertKinds = 11;
   static_assert(kAlertKinds <= static_cast<std::size_t>(kSnapshotMaxAlerts), "every alert kind fits a snapshot");
   std::array<SnapshotAlert, kAlertKinds> alerts_{};
   std::array<bool, kAlertKinds> alert_active_{};

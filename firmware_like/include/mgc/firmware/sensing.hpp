@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <cstdint>
 #include <span>
 
 #include "mgc/guidance/diagnostics.hpp"
@@ -12,8 +13,10 @@ namespace mgc::firmware {
 //! The supervisor's sensing inputs from the Hal's snapshot of this cycle, as docs/supervisor.md
 //! §Inputs maps them: joint health one to one, the valve from its heartbeat, fresh status frame and
 //! health, bus-off, the UWB gateway's health and the newest tag fix. Joints beyond the snapshot's
-//! stay Missing. RT-safe.
-[[nodiscard]] guidance::SensingInputs sensing_inputs(const hal::SensorSnapshot& snapshot) noexcept;
+//! stay Missing. The machine's own tags (machine_tag_ids) are no obstacle's: their fixes do not
+//! count as the obstacles' UWB being alive. RT-safe.
+[[nodiscard]] guidance::SensingInputs sensing_inputs(const hal::SensorSnapshot& snapshot,
+                                                     std::span<const std::uint8_t> machine_tag_ids = {}) noexcept;
 
 //! The cut-off node's health from the snapshot (docs/supervisor.md §Inputs). RT-safe.
 [[nodiscard]] guidance::CutoffHealth cutoff_health(const hal::SensorSnapshot& snapshot) noexcept;
