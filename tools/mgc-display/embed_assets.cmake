@@ -1,0 +1,20 @@
+# SPDX-License-Identifier: Apache-2.0
+# Run as `cmake -DOUT=file.cpp -DASSETS="a;b" -P embed_assets.cmake`: writes a C++ source that holds
+# each web asset's bytes, so that mgc-display serves its page without reading files at run time.
+set(text "// Generated from tools/mgc-display/web/ by embed_assets.cmake; do not edit.\n#include \"assets.hpp\"\n\nnamespace mgc::display {\nnamespace {\n")
+set(table "")
+set(index 0)
+foreach(asset IN LISTS ASSETS)
+  file(READ "${asset}" hex HEX)
+  string(LENGTH "${hex}" hex_len)
+  math(EXPR size "${hex_len} / 2")
+  string(REGEX REPLACE "([0-9a-f][0-9a-f])" "0x\\1," bytes "${hex}")
+  string(APPEND text "const unsigned char kAsset${index}[] = {${bytes}0x00};\n")
+  get_filename_component(name "${asset}" NAME)
+  string(APPEND table "    {\"/${name}\", reinterpret_cast<const char*>(kAsset${index}), ${size}},\n")
+  math(EXPR index "${index} + 1")
+endforeach()
+string(APPEND text "}  // namespace\n\nconst std::vector<Asset>& assets() {\n  static const std::vector<Asset> all{\n${table}  };\n  return all;\n}\n\n}  // namespace mgc::display\n")
+file(WRITE "${OUT}.tmp" "${text}")
+file(COPY_FILE "${OUT}.tmp" "${OUT}" ONLY_IF_DIFFERENT)
+file(REMOVE "${OUT}.tmp")
