@@ -276,6 +276,9 @@ int main(int argc, char** argv) {
     if (path == "/index.html") server.Get("/", serve);
   }
 
+  // Browsers ask for an icon; there is none, and an error would be noise in the console.
+  server.Get("/favicon.ico", [](const httplib::Request&, httplib::Response& res) { res.status = 204; });
+
   server.Get("/api/config", [&](const httplib::Request&, httplib::Response& res) {
     mgc::display::Json j;
     j.begin_object();

@@ -126,12 +126,24 @@ function drawScaleBar(view) {
   view.canvas.dataset.scaleBarM = String(len);
 }
 
+// The site does not move: its obstacles are drawn once into a layer that each frame copies.
+function staticLayer(view) {
+  const layer = document.createElement('canvas');
+  layer.width = view.canvas.width;
+  layer.height = view.canvas.height;
+  const v = Object.assign({}, view, { canvas: layer, ctx: layer.getContext('2d') });
+  // Ground line in the side view.
+  if (view.ay === 2) drawPolyline(v, [[scene.bounds_lo[0] - 1e3, 0, 0], [scene.bounds_hi[0] + 1e3, 0, 0]], '#8a6', 1);
+  for (const o of scene.obstacles) drawShape(v, o.corners, 'rgba(90,90,90,0.45)', '#333', false);
+  drawScaleBar(v);
+  view.canvas.dataset.scaleBarM = layer.dataset.scaleBarM;
+  return layer;
+}
+
 function drawView(view) {
   const c = view.ctx;
   c.clearRect(0, 0, view.canvas.width, view.canvas.height);
-  // Ground line in the side view.
-  if (view.ay === 2) drawPolyline(view, [[scene.bounds_lo[0] - 1e3, 0, 0], [scene.bounds_hi[0] + 1e3, 0, 0]], '#8a6', 1);
-  for (const o of scene.obstacles) drawShape(view, o.corners, 'rgba(90,90,90,0.45)', '#333', false);
+  c.drawImage(view.layer, 0, 0);
   if (plan && plan.tool_path.length > 1) {
     const seg = last && last.guidance && !stale ? last.guidance.segment_index : -1;
     drawPolyline(view, plan.tool_path, '#1f5fbf', 2);
@@ -159,15 +171,41 @@ function drawView(view) {
       c.fillText('machine as last reported (not current)', 12, 18);
     }
   }
-  drawScaleBar(view);
 }
 
 let planView = null, sideView = null;
+let drawPending = false;
 function draw() {
-  if (!scene) return;
+  if (!scene || drawPending) return;
+  drawPending = true;
+  requestAnimationFrame(() => {
+    drawPending = false;
+    drawNow();
+  });
+}
+// Grows the views' bounds (and redraws the site) when the machine or the plan reaches outside them,
+// so that the scale stays true and nothing is cut off.
+function fitBounds(points) {
+  const lo = scene.bounds_lo, hi = scene.bounds_hi;
+  let grown = false;
+  for (const p of points) {
+    for (let a = 0; a < 3; a++) {
+      if (p[a] < lo[a]) { lo[a] = p[a] - 0.1 * (hi[a] - p[a]); grown = true; }
+      if (p[a] > hi[a]) { hi[a] = p[a] + 0.1 * (p[a] - lo[a]); grown = true; }
+    }
+  }
+  if (grown) planView = sideView = null;
+}
+
+function drawNow() {
+  const machine = last && last.state && last.state.machine;
+  if (machine) fitBounds([].concat(...machine.bodies));
+  if (plan) fitBounds(plan.tool_path);
   if (!planView) {
     planView = makeView($('plan-view'), 0, 1);
     sideView = makeView($('side-view'), 0, 2);
+    planView.layer = staticLayer(planView);
+    sideView.layer = staticLayer(sideView);
   }
   drawView(planView);
   drawView(sideView);
