@@ -11,7 +11,7 @@ from another origin is refused; a malformed message is counted; the LCM message 
 within its rule; a screenshot is written to OUT_DIR/display.png. Exits 77 (skipped) only when
 Chromium, its driver or selenium is not installed.
 """
-import json
+import bisect
 import os
 import shutil
 import socket
@@ -184,17 +184,31 @@ try:
             parts = row.split()
             if len(parts) == 2:
                 sent[parts[0]] = int(parts[1])
-    latencies_ms = sorted(t_ms - sent[u] / 1e3 for u, t_ms in seen if u in sent)
-    n = len(latencies_ms)
-    median = statistics.median(latencies_ms) if n else float("nan")
-    p99 = latencies_ms[min(n - 1, int(0.99 * n))] if n else float("nan")
-    summary = "LCM message -> DOM latency over %d updates: median %.1f ms, p99 %.1f ms, max %.1f ms" % (
-        n, median, p99, latencies_ms[-1] if n else float("nan"))
-    print(summary)
+    def stats(name, values):
+        values = sorted(values)
+        n = len(values)
+        if not n:
+            return 0, float("nan"), float("nan"), name + ": no samples"
+        median, p99 = statistics.median(values), values[min(n - 1, int(0.99 * n))]
+        return n, median, p99, "%s over %d: median %.1f ms, p99 %.1f ms, max %.1f ms" % (name, n, median, p99, values[-1])
+    # (1) Each DOM update against the publication of the state it shows.
+    shown = stats("LCM message -> DOM, the message shown", [t_ms - sent[u] / 1e3 for u, t_ms in seen if u in sent])
+    # (2) Every published state against the first DOM update that shows it or a newer one: the
+    # latency of any change, the wait for the next push included.
+    seen_u = [int(u) for u, _ in seen]
+    any_message = []
+    for u, t_us in sent.items():
+        k = bisect.bisect_left(seen_u, int(u))
+        if seen_u and seen_u[0] <= int(u) and k < len(seen):
+            any_message.append(seen[k][1] - t_us / 1e3)
+    every = stats("LCM message -> DOM, every message", any_message)
+    for line in (shown[3], every[3]):
+        print(line)
     with open(os.path.join(out_dir, "latency.txt"), "w") as f:
-        f.write(summary + "\n")
+        f.write(shown[3] + "\n" + every[3] + "\n")
     # Generous bounds only (a loaded 2-core machine must meet them); the figures go to the docs.
-    check(n >= 200 and median < 250 and p99 < 1000, "latency within generous bounds: " + summary)
+    check(shown[0] >= 200 and shown[1] < 250 and shown[2] < 1000, "latency of the message shown within generous bounds")
+    check(every[0] >= 200 and every[1] < 250 and every[2] < 1000, "latency of every message within generous bounds")
 
     # Stale: the state stops; within the rule (0.5 s) plus a push period and a draw, the page says so.
     shot = os.path.join(out_dir, "display.png")

@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
       state.utime = ++utime;
       state.utime_sample = state.utime;
       out.publish(ch::kMachineState, &state);
-      sent << state.utime << ' ' << wall_us() << '\n';
+      sent << state.utime << ' ' << wall_us() << '\n' << std::flush;  // read while the stream runs
     }
   });
 
