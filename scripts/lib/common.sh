@@ -11,7 +11,7 @@ MGC_PACKAGES=(
   libeigen3-dev libfcl-dev libccd-dev
   liblcm-dev liblcm-bin libglib2.0-dev
   catch2 libyaml-cpp-dev libcli11-dev libboost-dev libsodium-dev libompl-dev libcpp-httplib-dev
-  chromium chromium-driver python3-selenium
+  chromium chromium-driver python3-selenium curl
   qemu-system-x86 busybox-static cpio
 )
 

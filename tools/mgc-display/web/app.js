@@ -221,6 +221,7 @@ function renderStale(ageS, why) {
     '. Nothing below is current.');
   for (const el of document.querySelectorAll('.live')) el.textContent = '—';
   setText('supervisor', '—');
+  $('supervisor').className = 'badge';
   setText('approach-countdown', '—');
   $('load-bar').style.width = '0';
   $('joints').tBodies[0].textContent = '';
@@ -242,7 +243,7 @@ function render() {
   }
   document.body.classList.remove('stale');
   const s = m.state;
-  setText('feed-status', 'LIVE');
+  setText('feed-status', config.playback ? 'PLAYBACK' : 'LIVE');
   $('feed-status').className = 'badge good';
   $('feed-status').dataset.utime = String(s.utime);
   const sup = SUPERVISOR[s.supervisor] || 'UNKNOWN';
