@@ -2,6 +2,7 @@
 #include "feed_state.hpp"
 
 #include <algorithm>
+#include <exception>
 
 #include "mgc/firmware/command_auth.hpp"
 #include "mgc/firmware/lcm_feed.hpp"
@@ -11,10 +12,38 @@ namespace {
 
 namespace ch = firmware::channel;
 
-// Decodes one message; false when the bytes are not a whole message of type T.
+// Decodes one message; false when the bytes are not a whole message of type T. The generated
+// decoders throw (std::length_error) on a string length of 0 or below.
 template <typename T>
 bool decode(const void* data, int size, T& out) {
-  return out.decode(data, 0, size) == size;
+  try {
+    return out.decode(data, 0, size) == size;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+std::int64_t be32(const std::uint8_t* b) {
+  return static_cast<std::int32_t>((std::uint32_t{b[0]} << 24) | (std::uint32_t{b[1]} << 16) | (std::uint32_t{b[2]} << 8) | b[3]);
+}
+
+// The generated plan_t decoder sizes its vectors from the counts in the bytes before it checks that
+// the bytes hold them: a forged count of 2^31 waypoints would take gigabytes. The counts must fit
+// the bytes that follow them (fingerprint, utime, planner_name, seed, status, then the counts).
+bool plan_counts_fit(const void* data, int size) {
+  const auto* b = static_cast<const std::uint8_t*>(data);
+  std::int64_t pos = 8 + 8;
+  if (size < pos + 4) return false;
+  const std::int64_t name_len = be32(b + pos);
+  pos += 4;
+  if (name_len < 1 || name_len > size - pos) return false;
+  pos += name_len + 8 + 1;
+  if (size < pos + 8) return false;
+  const std::int64_t num_joints = be32(b + pos);
+  const std::int64_t num_waypoints = be32(b + pos + 4);
+  pos += 8;
+  if (num_joints < 0 || num_joints > machine_state_t::MAX_JOINTS || num_waypoints < 0) return false;
+  return num_waypoints * (8 * num_joints + 1) <= size - pos;
 }
 
 double age_s(std::int64_t received_us, std::int64_t now_us) {
@@ -75,10 +104,7 @@ void FeedState::on_message(const std::string& channel, const void* data, int siz
     if (ok) on_alert(a, now_us);
   } else if (channel == ch::kPlan) {
     plan_t p{};
-    // The generated decoder sizes its vectors from the counts in the bytes: refuse counts that
-    // cannot fit before they are believed.
-    ok = decode(data, size, p) && p.num_joints >= 0 && p.num_joints <= machine_state_t::MAX_JOINTS &&
-         p.num_waypoints >= 0;
+    ok = plan_counts_fit(data, size) && decode(data, size, p);
     if (ok) on_plan(p, now_us);
   } else {
     return;  // not a channel of the feed (MGC_COMMAND, other tools' traffic)

@@ -188,6 +188,32 @@ int main(int argc, char** argv) {
       const char junk[] = "not an LCM message";
       const std::lock_guard lock(out_mutex);
       out.publish(channel, junk, sizeof junk);
+    } else if (verb == "bad-plan") {
+      // A plan_t whose counts claim 2^31 - 1 waypoints, and an operator_instruction_t whose text
+      // length is 0: the generated decoders would allocate gigabytes or throw.
+      std::vector<std::uint8_t> b;
+      const auto put = [&](std::uint64_t v, int bytes) {
+        for (int k = bytes - 1; k >= 0; --k) b.push_back(static_cast<std::uint8_t>(v >> (8 * k)));
+      };
+      put(static_cast<std::uint64_t>(mgc::plan_t::getHash()), 8);
+      put(0, 8);           // utime
+      put(2, 4);           // planner_name: "x\0"
+      b.push_back('x');
+      b.push_back(0);
+      put(0, 8);           // seed
+      b.push_back(1);      // status
+      put(4, 4);           // num_joints
+      put(0x7fffffff, 4);  // num_waypoints
+      b.resize(b.size() + 16, 0);  // the rest of the fixed fields, never reached
+      std::vector<std::uint8_t> t;
+      b.swap(t);
+      put(static_cast<std::uint64_t>(mgc::operator_instruction_t::getHash()), 8);
+      put(0, 8);  // utime
+      put(0, 4);  // text length 0: no room even for the terminating zero
+      b.resize(b.size() + 32, 0);
+      const std::lock_guard lock(out_mutex);
+      out.publish(ch::kPlan, t.data(), static_cast<unsigned>(t.size()));
+      out.publish(ch::kOperatorInstruction, b.data(), static_cast<unsigned>(b.size()));
     } else if (verb == "command") {
       int timeout_ms = 0;
       s >> timeout_ms;
