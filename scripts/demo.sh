@@ -9,7 +9,9 @@
 # duration, re-plans, stops, least clearance, alerts, loop timing), mgc-sim's truth line (the
 # true crane's least clearance, measured by the simulator, not the controller), an SVG of what
 # happened (build/demo/lift.svg), the LCM log (build/demo/mgc.lcmlog), the controller's trace and
-# the true machine state (CSV).
+# the true machine state (CSV). mgc-display serves the operator's screen during the lift (its URL
+# is printed; MGC_DEMO_DISPLAY_PORT, default 8780), and a headless-Chromium picture of that screen
+# at the end of the lift, played from the log, goes to build/demo/display.png.
 # Then, offline: every shipped scenario loaded, checked and planned (the default one-joint-at-a-time
 # planner axis-connect; the two-crane lifts with multi-rrt; the excavator's work cycle with nonuniform), and the event
 # scenarios executed with re-planning (mgc-bench's replan suite, two seeds). Installs missing
@@ -17,7 +19,7 @@
 set -euo pipefail
 source "$(dirname "$0")/lib/common.sh"
 mgc_install_packages
-mgc_build mgc mgc-operator mgc-plan mgc-sim mgc-bench
+mgc_build mgc mgc-operator mgc-plan mgc-sim mgc-bench mgc-display
 bin="$MGC_BUILD_DIR/bin"
 out="$MGC_BUILD_DIR/demo"
 mkdir -p "$out"
@@ -60,6 +62,20 @@ cpu_times() { awk '/^cpu /{print $9, $2+$3+$4+$5+$6+$7+$8+$9}' /proc/stat 2>/dev
 read -r steal_before total_before < <(cpu_times || echo "0 0")
 lcm-logger -q -f --lcm-url="$lcm_url" "$out/mgc.lcmlog" &
 logger_pid=$!
+# The operator's screen beside the lift (docs/operator-display.md); a busy port costs only the screen.
+"$bin/mgc-display" --scenario "$site" --key "$key" --lcm-url "$lcm_url" --port "${MGC_DEMO_DISPLAY_PORT:-8780}" \
+  >"$out/display.txt" 2>&1 &
+display_pid=$!
+for _ in $(seq 100); do
+  grep -q '^mgc-display: http' "$out/display.txt" && break
+  kill -0 "$display_pid" 2>/dev/null || break
+  sleep 0.1
+done
+if grep -q '^mgc-display: http' "$out/display.txt"; then
+  echo "    watch it live: $(head -1 "$out/display.txt" | sed 's/^mgc-display: \([^ ]*\).*/\1/')"
+else
+  echo "    no live display: $(head -1 "$out/display.txt")"
+fi
 "${sim_rt[@]}" "$bin/mgc-sim" --scenario "$site" "${sim_bus[@]}" --scenario-time-offset 40 --duration 620 --quiet \
   "${sim_lock[@]}" --truth-csv "$out/truth.csv" >"$out/sim.txt" &
 sim_pid=$!
@@ -69,8 +85,8 @@ mgc_pid=$!
 "$bin/mgc-operator" --key "$key" --lcm-url "$lcm_url" --scenario "$site" --goal --watch 600 --until-done || status=$?
 mgc_status=0
 wait "$mgc_pid" || mgc_status=$?
-kill "$sim_pid" "$logger_pid" 2>/dev/null || true
-wait "$sim_pid" "$logger_pid" 2>/dev/null || true
+kill "$sim_pid" "$logger_pid" "$display_pid" 2>/dev/null || true
+wait "$sim_pid" "$logger_pid" "$display_pid" 2>/dev/null || true
 cat "$out/mgc.txt"
 cat "$out/sim.txt"
 read -r steal_after total_after < <(cpu_times || echo "0 0")
@@ -85,6 +101,12 @@ fi
 "$bin/mgc-plan" --scenario "$site" --trace "$out/trace.csv" --svg "$out/lift.svg" || status=$?
 echo "what happened: build/demo/lift.svg; LCM log: build/demo/mgc.lcmlog ($(wc -c <"$out/mgc.lcmlog") bytes);"
 echo "controller trace: build/demo/trace.csv; true machine state: build/demo/truth.csv"
+# The operator's screen at the end of the lift, played from the log in headless Chromium.
+python=/usr/bin/python3
+[ -x "$python" ] || python=python3
+if "$python" "$MGC_ROOT/scripts/lib/display_screenshot.py" "$bin/mgc-display" "$site" "$out/mgc.lcmlog" "$out/display.png"; then
+  echo "operator display at the end of the lift: build/demo/display.png"
+fi
 echo
 
 for scenario in "$MGC_ROOT"/scenarios/*.yaml; do
