@@ -132,13 +132,21 @@ void FeedState::on_alert(const alert_t& a, std::int64_t now_us) {
     const bool old = i->second.cleared_us >= 0 && now_us - i->second.cleared_us > kClearedAlertKept_us;
     i = old ? alerts_.erase(i) : std::next(i);
   }
+  // A full list drops the alert cleared longest ago, and with none cleared the one heard longest
+  // ago: the loop repeats its active alerts every second, while alerts for refused commands come
+  // once and are never cleared.
   while (alerts_.size() > kMaxAlertsKept) {
-    auto oldest = alerts_.end();
+    auto drop = alerts_.begin();
     for (auto i = alerts_.begin(); i != alerts_.end(); ++i) {
-      if (i->second.cleared_us >= 0 && (oldest == alerts_.end() || i->second.cleared_us < oldest->second.cleared_us)) oldest = i;
+      const bool i_cleared = i->second.cleared_us >= 0;
+      const bool drop_cleared = drop->second.cleared_us >= 0;
+      if (i_cleared != drop_cleared) {
+        if (i_cleared) drop = i;
+      } else if (i_cleared ? i->second.cleared_us < drop->second.cleared_us : i->second.last_us < drop->second.last_us) {
+        drop = i;
+      }
     }
-    if (oldest == alerts_.end()) oldest = alerts_.begin();
-    alerts_.erase(oldest);
+    alerts_.erase(drop);
   }
 }
 

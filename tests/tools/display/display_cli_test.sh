@@ -81,6 +81,10 @@ kill "$pid"
 wait "$pid"
 code=$?
 [ "$code" -eq 0 ] || fail "mgc-display exited $code on SIGTERM"
-grep -q "^mgc-display: 200 messages received, 0 malformed" "$tmp/play.out" || fail "summary: $(tail -1 "$tmp/play.out")"
+# Every event at least once (a seek back plays the start again: how often depends on how fast this
+# machine ran the steps above), none malformed.
+summary="$(tail -1 "$tmp/play.out")"
+[[ $summary =~ ^mgc-display:\ ([0-9]+)\ messages\ received,\ 0\ malformed$ ]] && [ "${BASH_REMATCH[1]}" -ge 200 ] ||
+  fail "summary: $summary"
 
 finish "mgc-display command line"

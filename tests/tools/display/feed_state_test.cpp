@@ -1,0 +1,252 @@
+// SPDX-License-Identifier: Apache-2.0
+// mgc-display without its server, in stepped time: the staleness rule, the alert list, plans once
+// per page, malformed messages, the scene, and playback of a log (its errors included).
+#include <catch2/catch.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "feed_state.hpp"
+#include "json.hpp"
+#include "mgc/firmware/lcm_feed.hpp"
+#include "playback.hpp"
+#include "scene.hpp"
+
+namespace {
+
+using mgc::display::FeedState;
+namespace ch = mgc::firmware::channel;
+
+template <typename T>
+std::vector<std::uint8_t> encoded(const T& msg) {
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(msg.getEncodedSize()));
+  REQUIRE(msg.encode(bytes.data(), 0, static_cast<int>(bytes.size())) == static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+template <typename T>
+void feed(FeedState& state, const char* channel, const T& msg, std::int64_t now_us) {
+  const auto bytes = encoded(msg);
+  state.on_message(channel, bytes.data(), static_cast<int>(bytes.size()), now_us);
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+mgc::machine_state_t crane_state(double swing_rad) {
+  mgc::machine_state_t m{};
+  m.utime = 42;
+  m.machine_kind = mgc::machine_state_t::MACHINE_KIND_MOBILE_CRANE;
+  m.num_joints = 4;
+  m.joint_position[0] = swing_rad;
+  m.joint_position[1] = 0.9;
+  m.joint_position[2] = 30.0;
+  m.joint_position[3] = 20.0;
+  m.supervisor_state = mgc::machine_state_t::SUPERVISOR_EXECUTING;
+  m.load_moment_pct = 72.0;
+  return m;
+}
+
+mgc::alert_t alert(std::int32_t id, bool active) {
+  mgc::alert_t a{};
+  a.alert_id = id;
+  a.severity = mgc::alert_t::SEVERITY_STOP;
+  a.source = mgc::alert_t::SOURCE_COLLISION;
+  a.active = active;
+  a.value_unit = mgc::alert_t::UNIT_SECOND;
+  a.value = 3.5;
+  a.limit = NAN;
+  return a;
+}
+
+std::string scenario_path() { return std::string(MGC_SOURCE_DIR) + "/scenarios/thesis-steel-frame.yaml"; }
+
+}  // namespace
+
+TEST_CASE("the feed is alive for 0.5 s after the last machine state and stale after", "[display]") {
+  FeedState state(nullptr);
+  std::string j = state.json(1'000'000, nullptr);
+  CHECK(contains(j, "\"alive\":false"));
+  CHECK(contains(j, "\"state_age_s\":null"));
+  CHECK_FALSE(contains(j, "\"state\":"));
+
+  feed(state, ch::kMachineState, crane_state(0.5), 1'000'000);
+  j = state.json(1'000'000 + mgc::display::kStaleAfter_us, nullptr);
+  CHECK(contains(j, "\"alive\":true"));
+  CHECK(contains(j, "\"supervisor\":4"));
+  CHECK(contains(j, "\"load_moment_pct\":72"));
+  CHECK(contains(j, "\"joints\":[0.5,0.9,30,20]"));
+  j = state.json(1'000'001 + mgc::display::kStaleAfter_us, nullptr);
+  CHECK(contains(j, "\"alive\":false"));
+  CHECK(contains(j, "\"state_age_s\":0.500001"));
+}
+
+TEST_CASE("alerts are listed when raised, marked when cleared and dropped 30 s later", "[display]") {
+  FeedState state(nullptr);
+  feed(state, ch::kAlert, alert(9, false), 0);  // a clear for an alert never seen raised
+  CHECK(contains(state.json(0, nullptr), "\"alerts\":[]"));
+
+  feed(state, ch::kAlert, alert(7, true), 1'000'000);
+  std::string j = state.json(2'000'000, nullptr);
+  CHECK(contains(j, "\"id\":7,\"severity\":4,\"source\":1,\"active\":true"));
+  CHECK(contains(j, "\"raised_ago_s\":1,"));
+  CHECK(contains(j, "\"limit\":null"));  // NaN is not JSON
+
+  feed(state, ch::kAlert, alert(7, true), 3'000'000);  // the 1 Hz repeat keeps the raise time
+  feed(state, ch::kAlert, alert(7, false), 4'000'000);
+  j = state.json(5'000'000, nullptr);
+  CHECK(contains(j, "\"id\":7,\"severity\":4,\"source\":1,\"active\":false"));
+  CHECK(contains(j, "\"raised_ago_s\":4,"));
+  CHECK(contains(j, "\"cleared_ago_s\":1}"));
+
+  // Another alert 30 s after the clear sweeps the cleared one out.
+  feed(state, ch::kAlert, alert(8, true), 4'000'001 + mgc::display::kClearedAlertKept_us);
+  j = state.json(4'000'001 + mgc::display::kClearedAlertKept_us, nullptr);
+  CHECK_FALSE(contains(j, "\"id\":7,"));
+  CHECK(contains(j, "\"id\":8,"));
+
+  // A full list drops the alert cleared longest ago first, then the active one heard longest ago.
+  feed(state, ch::kAlert, alert(8, false), 41'000'000);
+  for (int id = 100; id < 100 + static_cast<int>(mgc::display::kMaxAlertsKept); ++id) feed(state, ch::kAlert, alert(id, true), 42'000'000 + id);
+  j = state.json(42'000'000, nullptr);
+  CHECK_FALSE(contains(j, "\"id\":8,"));
+  CHECK(contains(j, "\"id\":100,"));
+  feed(state, ch::kAlert, alert(100, true), 43'000'000);  // 100 repeats, 101 does not
+  feed(state, ch::kAlert, alert(200, true), 43'000'001);
+  j = state.json(43'000'001, nullptr);
+  CHECK(contains(j, "\"id\":100,"));
+  CHECK_FALSE(contains(j, "\"id\":101,"));
+  CHECK(contains(j, "\"id\":102,"));
+  CHECK(contains(j, "\"id\":200,"));
+}
+
+TEST_CASE("malformed messages are counted per channel and change nothing", "[display]") {
+  FeedState state(nullptr);
+  const char junk[] = "not an LCM message";
+  state.on_message(ch::kMachineState, junk, sizeof junk, 0);
+  state.on_message(ch::kAlert, junk, 3, 0);
+  state.on_message("SOMEONE_ELSES", junk, sizeof junk, 0);  // not the feed: ignored, not counted
+
+  // A plan whose counts claim 2^31 - 1 waypoints of 4 joints in a few bytes.
+  mgc::plan_t plan{};
+  plan.planner_name = "x";
+  plan.num_joints = 4;
+  auto bytes = encoded(plan);
+  const std::size_t counts_at = 8 + 8 + 4 + 2 + 8 + 1 + 4;  // fingerprint, utime, name, seed, status, num_joints
+  bytes[counts_at] = 0x7f;
+  bytes[counts_at + 1] = bytes[counts_at + 2] = bytes[counts_at + 3] = 0xff;
+  state.on_message(ch::kPlan, bytes.data(), static_cast<int>(bytes.size()), 0);
+
+  // An instruction whose text length is 0 (the generated decoder throws on it).
+  mgc::operator_instruction_t instruction{};
+  instruction.text = "swing left";
+  bytes = encoded(instruction);
+  bytes[16] = bytes[17] = bytes[18] = bytes[19] = 0;
+  state.on_message(ch::kOperatorInstruction, bytes.data(), static_cast<int>(bytes.size()), 0);
+
+  CHECK(state.malformed() == 4);
+  CHECK(state.received() == 4);
+  const std::string j = state.json(0, nullptr);
+  CHECK(contains(j, "\"malformed\":{\"MGC_ALERT\":1,\"MGC_MACHINE_STATE\":1,\"MGC_OPERATOR_INSTRUCTION\":1,\"MGC_PLAN\":1}"));
+  CHECK_FALSE(contains(j, "\"state\":"));
+  CHECK_FALSE(contains(j, "\"instruction\":"));
+  CHECK(contains(j, "\"plan_version\":0"));
+}
+
+TEST_CASE("the machine is drawn through the scenario's model and a plan reaches each page once", "[display]") {
+  const mgc::display::Scene scene(scenario_path());
+  REQUIRE(scene.dof() == 4);
+  FeedState state(&scene);
+  feed(state, ch::kMachineState, crane_state(0.5), 0);
+  std::string j = state.json(0, nullptr);
+  CHECK(contains(j, "\"machine\":{\"bodies\":[[["));
+
+  // The hook at the state's joints is the model's: compare with the tool point it computes.
+  mgc::planning::JointVector q(4);
+  q << 0.5, 0.9, 30.0, 20.0;
+  const auto hook = scene.tool_path({q}).front();
+  mgc::display::Json expected;
+  expected.point(hook);
+  CHECK(contains(j, "\"tool\":" + expected.str()));
+
+  mgc::plan_t plan{};
+  plan.planner_name = "test";
+  plan.num_joints = 4;
+  plan.positions = {{0.5, 0.9, 30.0, 20.0}, {1.2, 0.9, 30.0, 20.0}};
+  plan.num_waypoints = 2;
+  plan.moving_joint = {0, mgc::plan_t::NO_JOINT};
+  feed(state, ch::kPlan, plan, 0);
+  std::uint64_t page_a = 0;
+  std::uint64_t page_b = 0;
+  j = state.json(0, &page_a);
+  CHECK(contains(j, "\"plan\":{\"version\":1,\"planner\":\"test\""));
+  CHECK(contains(j, "\"tool_path\":[["));
+  CHECK_FALSE(contains(state.json(0, &page_a), "\"plan\":"));
+  CHECK(contains(state.json(0, &page_b), "\"plan\":{\"version\":1"));
+  // 0.7 rad of swing in steps of at most 2 deg: 21 steps, 22 points.
+  mgc::planning::JointVector q_end(4);
+  q_end << 1.2, 0.9, 30.0, 20.0;
+  CHECK(scene.tool_path({q, q_end}).size() == 22);
+
+  // A plan for another machine (2 joints) has no path on this one.
+  plan.num_joints = 2;
+  plan.positions = {{0.0, 0.0}, {1.0, 0.0}};
+  feed(state, ch::kPlan, plan, 0);
+  CHECK(contains(state.json(0, &page_a), "\"tool_path\":[]"));
+}
+
+TEST_CASE("JSON text: strings escaped, non-finite numbers null", "[display]") {
+  mgc::display::Json j;
+  j.begin_object().key("text").value("a \"b\"\\\n").key("nan").value(NAN).key("inf").value(INFINITY).key("n").value(1.5).end_object();
+  CHECK(j.str() == "{\"text\":\"a \\\"b\\\"\\\\\\u000a\",\"nan\":null,\"inf\":null,\"n\":1.5}");
+}
+
+TEST_CASE("a recorded log plays in its own time, seeks back and refuses what is not a whole log", "[display]") {
+  const std::string dir = std::filesystem::temp_directory_path() / ("mgc-display-test-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = dir + "/lift.lcmlog";
+  {
+    lcm::LogFile log(path, "w");
+    REQUIRE(log.good());
+    for (int k = 0; k < 100; ++k) {
+      const auto bytes = encoded(crane_state(0.01 * k));
+      lcm::LogEvent e{};
+      e.eventnum = k;
+      e.timestamp = 5'000'000 + k * 10'000;
+      e.channel = ch::kMachineState;
+      e.datalen = static_cast<int32_t>(bytes.size());
+      e.data = const_cast<std::uint8_t*>(bytes.data());
+      REQUIRE(log.writeEvent(&e) == 0);
+    }
+  }
+  mgc::display::Playback playback(path);
+  CHECK(contains(playback.json(), "\"duration_s\":0.99"));
+  CHECK(contains(playback.json(), "\"events\":100"));
+  std::string error;
+  CHECK_FALSE(playback.control("speed", "11", error));
+  CHECK(contains(error, "speed: expected a number from 0.1 to 10"));
+  CHECK_FALSE(playback.control("seek", "2", error));
+  CHECK_FALSE(playback.control("jump", "", error));
+  CHECK(playback.control("pause", "", error));
+  CHECK(playback.control("seek", "0.5", error));
+  CHECK(playback.position_us() == 500'000);
+
+  const auto size = std::filesystem::file_size(path);
+  std::filesystem::copy_file(path, dir + "/cut.lcmlog");
+  std::filesystem::resize_file(dir + "/cut.lcmlog", size - 5);
+  CHECK_THROWS_WITH(mgc::display::Playback(dir + "/cut.lcmlog"),
+                    Catch::Contains(std::to_string(size - 5) + " bytes, the last whole event ends at byte") &&
+                        Catch::Contains("(truncated log)"));
+  {
+    std::ofstream text(dir + "/text.lcmlog");
+    text << "no events here\n";
+  }
+  CHECK_THROWS_WITH(mgc::display::Playback(dir + "/text.lcmlog"), Catch::Contains("no LCM log event"));
+  CHECK_THROWS_WITH(mgc::display::Playback(dir + "/none.lcmlog"), Catch::Contains("none.lcmlog: No such file"));
+  std::filesystem::remove_all(dir);
+}
