@@ -78,7 +78,8 @@ bool in_plan(const BusPlan& plan, std::uint8_t node) noexcept {
 
 Classified classify(const CanFrame& frame, const BusPlan& plan) noexcept {
   using canopen::FunctionCode;
-  if ((frame.can_id & (kCanEffFlag | kCanRtrFlag | kCanErrFlag)) != 0) return {};
+  // Flags, or identifier bits above the 11 a standard id has: no COB-ID, however its low bits read.
+  if ((frame.can_id & ~kCanSffMask) != 0) return {};
   const std::uint32_t id = frame.can_id;
   if (id == canopen::kNmtCobId) return {MessageKind::Nmt, 0, -1};
   if (id == canopen::kSyncCobId) return {MessageKind::Sync, plan.controller_node_id, -1};

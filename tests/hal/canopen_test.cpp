@@ -163,6 +163,11 @@ TEST_CASE("bus plans give each device its own ids and classify frames by them", 
     CanFrame extended = CanFrame::standard(0x191, 5);
     extended.can_id |= kCanEffFlag;
     CHECK(classify(extended, plan).kind == MessageKind::Unknown);
+    // A standard frame with bits set above its 11-bit id (an invalid frame) is no COB-ID, even
+    // when its low 11 bits are one: 0x991 reads as the first encoder's TPDO1 in bits 0-10.
+    CanFrame wide = CanFrame::standard(0x191, 5);
+    wide.can_id |= 0x800U;
+    CHECK(classify(wide, plan).kind == MessageKind::Unknown);
   }
   CodecCounters counters;
   counters.record(Status::Ok);

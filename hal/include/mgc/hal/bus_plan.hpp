@@ -95,8 +95,8 @@ struct Classified {
 };
 
 //! Classifies by COB-ID against the plan: Sync/Nmt by id; Emcy/Heartbeat for any node of the
-//! plan; PDOs only for the node and PDO number the plan assigns. Extended, RTR and error frames
-//! are Unknown. RT-safe.
+//! plan; PDOs only for the node and PDO number the plan assigns. Extended, RTR and error frames,
+//! and ids wider than 11 bits, are Unknown. RT-safe.
 [[nodiscard]] Classified classify(const CanFrame& frame, const BusPlan& plan) noexcept;
 
 //! Per-outcome decode counters for the receiving side (unknown ids are counted, never fatal).
