@@ -21,6 +21,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -547,6 +548,32 @@ TEST_CASE("operator_instruction_t round-trips every field", "[unit]") {
   REQUIRE(got.envelope_wall == sent.envelope_wall);
   REQUIRE(got.load_moment_pct == sent.load_moment_pct);
   require_truncations_rejected<mgc::operator_instruction_t>(buf);
+}
+
+TEST_CASE("a string length below 1 from the wire is refused, not thrown", "[unit]") {
+  // The length counts the string's NUL, so it is at least 1; lcm-gen's decoder took length - 1
+  // characters of whatever it read, and threw std::length_error out of decode() for 0 or less.
+  mgc::operator_instruction_t words{};
+  words.text = "hold";
+  Bytes good = encode_checked(words);
+  mgc::plan_t plan{};
+  plan.planner_name = "mgc";
+  Bytes good_plan = encode_checked(plan);
+  constexpr std::size_t kLengthAt = 16;  // after the fingerprint and utime
+  for (const std::int32_t length : {0, -1, -5, std::numeric_limits<std::int32_t>::min()}) {
+    CAPTURE(length);
+    for (Bytes* buf : {&good, &good_plan}) {
+      const auto u = static_cast<std::uint32_t>(length);
+      for (std::size_t i = 0; i < 4; ++i) (*buf)[kLengthAt + i] = static_cast<std::uint8_t>(u >> (24 - 8 * i));
+    }
+    mgc::operator_instruction_t got{};
+    int used = 0;
+    REQUIRE_NOTHROW(used = got.decode(good.data(), 0, static_cast<int>(good.size())));
+    CHECK(used < 0);
+    mgc::plan_t got_plan{};
+    REQUIRE_NOTHROW(used = got_plan.decode(good_plan.data(), 0, static_cast<int>(good_plan.size())));
+    CHECK(used < 0);
+  }
 }
 
 TEST_CASE("the feed's fingerprints differ from each other and from the loop's types", "[unit]") {
