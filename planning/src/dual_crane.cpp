@@ -13,7 +13,6 @@
 namespace mgc::planning {
 namespace {
 
-constexpr double kGravity_m_s2 = 9.80665;
 constexpr int kDualDof = 6;
 constexpr int kJointsPerCrane = 3;
 
