@@ -1,10 +1,12 @@
 # SPDX-License-Identifier: Apache-2.0
 # Shared by the README's commands: installs the Debian packages mgc needs (only those missing,
-# with one apt-get update first) and configures and builds into build/ (and build-release/).
+# with one apt-get update first) and configures and builds into build/ (and build-release/, and
+# the clang fuzz build build-fuzz/).
 
 MGC_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 MGC_BUILD_DIR="${MGC_BUILD_DIR:-$MGC_ROOT/build}"
 MGC_RELEASE_DIR="${MGC_RELEASE_DIR:-$MGC_ROOT/build-release}"
+MGC_FUZZ_DIR="${MGC_FUZZ_DIR:-$MGC_ROOT/build-fuzz}"
 
 MGC_PACKAGES=(
   g++ cmake make pkg-config
@@ -13,6 +15,7 @@ MGC_PACKAGES=(
   catch2 libyaml-cpp-dev libcli11-dev libboost-dev libsodium-dev libompl-dev libcpp-httplib-dev
   chromium chromium-driver python3-selenium curl
   qemu-system-x86 busybox-static cpio
+  clang libclang-rt-14-dev
 )
 
 mgc_install_packages() {
@@ -60,4 +63,12 @@ mgc_build() {
 mgc_build_release() {
   cmake -S "$MGC_ROOT" -B "$MGC_RELEASE_DIR" -DCMAKE_BUILD_TYPE=Release -DMGC_BUILD_TESTS=OFF
   cmake --build "$MGC_RELEASE_DIR" -j "$(nproc)"
+}
+
+# mgc_build_fuzz: configures build-fuzz/ with clang and MGC_FUZZ=ON and builds the libFuzzer
+# targets and only the libraries they need (docs/fuzzing.md); `ctest -L fuzz` there runs them.
+mgc_build_fuzz() {
+  cmake -S "$MGC_ROOT" -B "$MGC_FUZZ_DIR" -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DMGC_BUILD_TESTS=OFF -DMGC_FUZZ=ON
+  cmake --build "$MGC_FUZZ_DIR" -j "$(nproc)" --target mgc_fuzz
 }
