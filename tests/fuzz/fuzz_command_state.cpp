@@ -12,7 +12,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "fuzz_support.hpp"
@@ -22,11 +24,21 @@ using mgc::fuzz::require;
 
 namespace {
 
-std::string temp_folder() {
-  std::string pattern = "/dev/shm/mgc-fuzz-state-XXXXXX";
-  require(::mkdtemp(pattern.data()) != nullptr, "cannot make a temporary folder");
-  return pattern;
-}
+// A folder of its own in memory, removed when the process ends.
+struct Folder {
+  std::string path;
+  Folder() {
+    std::string pattern = "/dev/shm/mgc-fuzz-state-XXXXXX";
+    require(::mkdtemp(pattern.data()) != nullptr, "cannot make a temporary folder");
+    path = pattern;
+  }
+  ~Folder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+  Folder(const Folder&) = delete;
+  Folder& operator=(const Folder&) = delete;
+};
 
 void write_file(const std::string& path, const std::uint8_t* data, std::size_t size) {
   std::FILE* f = std::fopen(path.c_str(), "wb");
@@ -38,9 +50,9 @@ void write_file(const std::string& path, const std::uint8_t* data, std::size_t s
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const std::string folder = temp_folder();
-  static const std::string path = folder + "/state";
-  static const std::string copy = folder + "/copy";
+  static const Folder folder;
+  static const std::string path = folder.path + "/state";
+  static const std::string copy = folder.path + "/copy";
   write_file(path, data, size);
 
   std::vector<SenderCounter> counters;

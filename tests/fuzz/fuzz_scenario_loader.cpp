@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <typeinfo>
 
 #include "fuzz_support.hpp"
@@ -38,6 +39,12 @@ struct Folder {
     std::filesystem::create_directory_symlink(std::filesystem::path(MGC_SOURCE_DIR) / "scenarios" / "machines",
                                               path / "machines");
   }
+  ~Folder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+  Folder(const Folder&) = delete;
+  Folder& operator=(const Folder&) = delete;
 };
 
 void write_file(const std::filesystem::path& file, std::string_view bytes) {
