@@ -120,27 +120,25 @@ bool SiteVerifier::in_range(const SiteRosterEntry& m, int joint, double value) c
   return value >= m.position_min[j] - tol && value <= m.position_max[j] + tol;
 }
 
-SiteReason SiteVerifier::check_sender(std::int32_t machine_id, std::int64_t sender_time_us, std::int64_t now_us,
-                                      int& index) const noexcept {
-  index = roster_.index_of(machine_id);
+template <class Msg>
+SiteReason SiteVerifier::authenticate(const Msg& msg, std::int64_t now_us, int& index) const noexcept {
+  index = -1;
+  std::array<std::uint8_t, kSiteEncodedMaxBytes> buf{};
+  const std::size_t n = canonical(msg, buf);
+  if (n == 0 || !mac_verifies(std::span(buf.data(), n), key_, msg.mac)) return SiteReason::BadMac;
+  index = roster_.index_of(msg.machine_id);
   if (index < 0) return SiteReason::UnknownMachine;
-  if (machine_id == my_id_) return SiteReason::OwnMachine;
+  if (msg.machine_id == my_id_) return SiteReason::OwnMachine;
   // The bounds are computed from now_us, a realistic clock far from the int64 limits, so no
   // sender time can make them overflow.
-  if (sender_time_us > now_us + max_skew_us_) return SiteReason::TimeAhead;
-  if (sender_time_us < now_us - max_skew_us_) return SiteReason::TimeBehind;
+  if (msg.sender_time_us > now_us + max_skew_us_) return SiteReason::TimeAhead;
+  if (msg.sender_time_us < now_us - max_skew_us_) return SiteReason::TimeBehind;
   return SiteReason::Accepted;
 }
 
 SiteReason SiteVerifier::check_state(const site_state_t& msg, std::int64_t now_us) noexcept {
-  // The MAC first: nothing else about an unauthenticated message is worth looking at.
-  std::array<std::uint8_t, kSiteEncodedMaxBytes> buf{};
-  const std::size_t n = canonical(msg, buf);
-  if (n == 0 || !mac_verifies(std::span(buf.data(), n), key_, msg.mac)) return counted(SiteReason::BadMac);
   int index = -1;
-  if (const SiteReason r = check_sender(msg.machine_id, msg.sender_time_us, now_us, index); r != SiteReason::Accepted) {
-    return counted(r);
-  }
+  if (const SiteReason r = authenticate(msg, now_us, index); r != SiteReason::Accepted) return counted(r);
   const auto i = static_cast<std::size_t>(index);
   const SiteRosterEntry& m = roster_.machines[i];
   if (msg.priority != m.priority) return counted(SiteReason::WrongPriority);
@@ -168,13 +166,8 @@ SiteReason SiteVerifier::check_state(const site_state_t& msg, std::int64_t now_u
 }
 
 SiteReason SiteVerifier::check_plan(const site_plan_t& msg, std::int64_t now_us) noexcept {
-  std::array<std::uint8_t, kSiteEncodedMaxBytes> buf{};
-  const std::size_t n = canonical(msg, buf);
-  if (n == 0 || !mac_verifies(std::span(buf.data(), n), key_, msg.mac)) return counted(SiteReason::BadMac);
   int index = -1;
-  if (const SiteReason r = check_sender(msg.machine_id, msg.sender_time_us, now_us, index); r != SiteReason::Accepted) {
-    return counted(r);
-  }
+  if (const SiteReason r = authenticate(msg, now_us, index); r != SiteReason::Accepted) return counted(r);
   const auto i = static_cast<std::size_t>(index);
   const SiteRosterEntry& m = roster_.machines[i];
   if (msg.sequence <= last_plan_sequence_[i]) return counted(SiteReason::StaleSequence);

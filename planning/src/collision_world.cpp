@@ -33,6 +33,28 @@ const char* to_string(ShapeKind kind) noexcept {
   return "unknown";
 }
 
+std::vector<Eigen::Vector3d> box_corners(const Eigen::Isometry3d& pose, const Eigen::Vector3d& size_m) {
+  std::vector<Eigen::Vector3d> corners;
+  corners.reserve(8);
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d unit((c & 1) ? 0.5 : -0.5, (c & 2) ? 0.5 : -0.5, (c & 4) ? 0.5 : -0.5);
+    corners.push_back(pose * unit.cwiseProduct(size_m));
+  }
+  return corners;
+}
+
+std::vector<Eigen::Vector3d> outline_points(const ShapePart& shape, const Eigen::Isometry3d& owner) {
+  if (shape.kind == ShapeKind::Mesh) {
+    std::vector<Eigen::Vector3d> out;
+    out.reserve(shape.vertices_m.size());
+    for (const auto& v : shape.vertices_m) out.push_back(owner * shape.pose * v);
+    return out;
+  }
+  Eigen::Vector3d size = shape.size_m;
+  if (shape.kind == ShapeKind::Capsule) size.z() += size.x();  // the hemispherical ends
+  return box_corners(owner * shape.pose, size);
+}
+
 namespace {
 
 using CollisionObject = fcl::CollisionObjectd;

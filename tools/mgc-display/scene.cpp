@@ -11,28 +11,6 @@
 namespace mgc::display {
 namespace {
 
-// The 8 corners of a box of `size` (full extents) placed by `pose`.
-std::vector<Eigen::Vector3d> box_corners(const Eigen::Isometry3d& pose, const Eigen::Vector3d& size) {
-  std::vector<Eigen::Vector3d> corners;
-  for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d unit((c & 1) ? 0.5 : -0.5, (c & 2) ? 0.5 : -0.5, (c & 4) ? 0.5 : -0.5);
-    corners.push_back(pose * unit.cwiseProduct(size));
-  }
-  return corners;
-}
-
-// What the page outlines of a shape: its vertices (a mesh) or the corners of its bounding box.
-std::vector<Eigen::Vector3d> shape_corners(const planning::ShapePart& shape) {
-  if (shape.kind == planning::ShapeKind::Mesh) {
-    std::vector<Eigen::Vector3d> out;
-    for (const auto& v : shape.vertices_m) out.push_back(shape.pose * v);
-    return out;
-  }
-  Eigen::Vector3d size = shape.size_m;
-  if (shape.kind == planning::ShapeKind::Capsule) size.z() += size.x();  // the hemispherical ends
-  return box_corners(shape.pose, size);
-}
-
 void write_points(Json& out, const std::vector<Eigen::Vector3d>& points) {
   out.begin_array();
   for (const auto& p : points) out.point(p);
@@ -82,7 +60,7 @@ std::string Scene::static_json() const {
     }
   };
   for (const auto& o : scenario_.obstacles) {
-    const auto corners = shape_corners(o.shape);
+    const auto corners = planning::outline_points(o.shape);
     grow(corners);
     out.begin_object();
     out.key("name").value(o.name);
@@ -95,7 +73,7 @@ std::string Scene::static_json() const {
   for (const auto* q : {&scenario_.start, &scenario_.goal}) {
     if (q->size() != model_->dof()) continue;
     model_->forward_kinematics(*q, k);
-    for (std::size_t b = 0; b < model_->bodies().size(); ++b) grow(box_corners(k.bodies[b].world_from_body, k.bodies[b].size_m));
+    for (std::size_t b = 0; b < model_->bodies().size(); ++b) grow(planning::box_corners(k.bodies[b].world_from_body, k.bodies[b].size_m));
   }
   lo.z() = std::min(lo.z(), 0.0);
   out.key("bounds_lo").point(lo);
@@ -110,7 +88,7 @@ void Scene::write_machine(Json& out, const planning::JointVector& q) const {
   out.begin_object();
   out.key("bodies").begin_array();
   for (std::size_t b = 0; b < model_->bodies().size(); ++b) {
-    write_points(out, box_corners(k.bodies[b].world_from_body, k.bodies[b].size_m));
+    write_points(out, planning::box_corners(k.bodies[b].world_from_body, k.bodies[b].size_m));
   }
   out.end_array();
   out.key("tool").point(k.points[static_cast<std::size_t>(tool_index_)]);

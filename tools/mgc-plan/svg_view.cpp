@@ -40,26 +40,7 @@ Polygon convex_hull(Polygon points) {
   return hull;
 }
 
-// The 8 corners of a box of `size` (full extents) placed by `pose`.
-std::vector<Eigen::Vector3d> box_corners(const Eigen::Isometry3d& pose, const Eigen::Vector3d& size) {
-  std::vector<Eigen::Vector3d> corners;
-  for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3d unit((c & 1) ? 0.5 : -0.5, (c & 2) ? 0.5 : -0.5, (c & 4) ? 0.5 : -0.5);
-    corners.push_back(pose * unit.cwiseProduct(size));
-  }
-  return corners;
-}
 
-std::vector<Eigen::Vector3d> shape_corners(const planning::ShapePart& shape, const Eigen::Isometry3d& owner) {
-  if (shape.kind == planning::ShapeKind::Mesh) {
-    std::vector<Eigen::Vector3d> out;
-    for (const auto& v : shape.vertices_m) out.push_back(owner * shape.pose * v);
-    return out;
-  }
-  Eigen::Vector3d size = shape.size_m;
-  if (shape.kind == planning::ShapeKind::Capsule) size.z() += size.x();  // the hemispherical ends
-  return box_corners(owner * shape.pose, size);
-}
 
 using Panel = SvgPanel;
 
@@ -120,17 +101,17 @@ Scene scene_of(const SvgInput& in) {
   planning::Kinematics k;
 
   Scene scene;
-  for (const auto& o : scenario.obstacles) scene.obstacles.push_back(shape_corners(o.shape, Eigen::Isometry3d::Identity()));
+  for (const auto& o : scenario.obstacles) scene.obstacles.push_back(planning::outline_points(o.shape));
   for (std::size_t i = 0; i < scenario.dynamic_obstacles.size(); ++i) {
     const auto& d = scenario.dynamic_obstacles[i];
     const Eigen::Isometry3d pose = i < in.dynamic_poses.size() ? in.dynamic_poses[i] : d.pose_at(0.0);
-    for (const auto& part : d.obstacle.parts) scene.dynamic.push_back(shape_corners(part, pose));
+    for (const auto& part : d.obstacle.parts) scene.dynamic.push_back(planning::outline_points(part, pose));
   }
   const auto machine_at = [&](const JointVector& q) {
     model.forward_kinematics(q, k);
     std::vector<std::vector<Eigen::Vector3d>> bodies;
     for (std::size_t b = 0; b < model.bodies().size(); ++b) {
-      bodies.push_back(box_corners(k.bodies[b].world_from_body, k.bodies[b].size_m));
+      bodies.push_back(planning::box_corners(k.bodies[b].world_from_body, k.bodies[b].size_m));
     }
     return bodies;
   };

@@ -97,10 +97,11 @@ class SiteVerifier {
 
  private:
   SiteReason counted(SiteReason reason) noexcept;
-  //! The checks both types share after the MAC: the machine and the sender's clock. Sets index
-  //! to the machine's roster index.
-  [[nodiscard]] SiteReason check_sender(std::int32_t machine_id, std::int64_t sender_time_us, std::int64_t now_us,
-                                        int& index) const noexcept;
+  //! The checks both types share: the MAC first (nothing else about an unauthenticated message is
+  //! worth looking at), then the machine and the sender's clock. Sets index to the machine's
+  //! roster index.
+  template <class Msg>
+  [[nodiscard]] SiteReason authenticate(const Msg& msg, std::int64_t now_us, int& index) const noexcept;
   [[nodiscard]] bool in_range(const SiteRosterEntry& m, int joint, double position_rad_or_m) const noexcept;
 
   SiteKey key_;

@@ -28,6 +28,14 @@ struct ShapePart {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();        //!< owner_from_shape
 };
 
+//! The 8 corners of a box of full extents `size_m` placed by `pose`. [m]
+[[nodiscard]] std::vector<Eigen::Vector3d> box_corners(const Eigen::Isometry3d& pose, const Eigen::Vector3d& size_m);
+
+//! The points that outline a shape in drawings: a mesh's vertices, else the corners of the
+//! shape's bounding box (a capsule's with its hemispherical ends), placed by owner * shape.pose. [m]
+[[nodiscard]] std::vector<Eigen::Vector3d> outline_points(const ShapePart& shape,
+                                                          const Eigen::Isometry3d& owner = Eigen::Isometry3d::Identity());
+
 //! A fixed obstacle of the site: one shape placed in the world.
 struct StaticObstacle {
   std::string name;
