@@ -21,6 +21,7 @@
 #include "mgc/tools/cli_checks.hpp"
 
 #include "bus_bench.hpp"
+#include "campaign_bench.hpp"
 #include "kim_bench.hpp"
 #include "loop_bench.hpp"
 #include "planning_bench.hpp"
@@ -66,8 +67,9 @@ int main(int argc, char** argv) {
   int trajectory_cases = 100000;
   mgc::bench::LoopBenchOptions loop;
   mgc::bench::OmplOptions ompl;
+  mgc::bench::CampaignOptions campaign;
   for (const auto& [name, run] : planning_suites()) names += std::string(names.empty() ? "" : ", ") + name;
-  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), all (thesis, zhang, langari, sites, kim), bus (fieldbus), trajectory, safety or loop (control cycle)");
+  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), campaign (randomized lifts judged in the true state), all (thesis, zhang, langari, sites, kim, campaign), bus (fieldbus), trajectory, safety or loop (control cycle)");
   app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51; kim 100); sites: seeds per site (6)")
       ->check(mgc::tools::positive_number());
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
@@ -88,6 +90,11 @@ int main(int argc, char** argv) {
       ->check(mgc::tools::nonnegative_number());
   app.add_option("--sweep-limit", loop.sweep_limit_s, "loop suite: simulated seconds a sweep run may take to reach the goal")
       ->check(mgc::tools::positive_number());
+  app.add_option("--campaign-lifts", campaign.lifts, "campaign suite: lifts 0 .. K-1 (default 1000)")->check(mgc::tools::positive_number());
+  app.add_option("--lift", campaign.lift, "campaign suite: run lift N alone and print its whole record")
+      ->check(mgc::tools::nonnegative_number());
+  app.add_option("--campaign-threads", campaign.threads, "campaign suite: lifts run on this many threads (the results do not depend on it)")
+      ->check(mgc::tools::positive_number());
   app.add_option("--ompl-time-limit", ompl.time_limit_s, "OMPL: seconds per query before it counts as a failure")
       ->check(mgc::tools::positive_number());
   app.add_option("--ompl-range", ompl.range_steps, "OMPL RRT/RRTConnect extension length in steps; 0: our extend step")
@@ -105,9 +112,9 @@ int main(int argc, char** argv) {
     if ((suite_name == "all" && suite.first != "replan") || suite_name == suite.first) chosen.push_back(suite);
   }
   const bool other_suite = suite_name == "bus" || suite_name == "trajectory" || suite_name == "safety" ||
-                           suite_name == "loop" || suite_name == "kim";
+                           suite_name == "loop" || suite_name == "kim" || suite_name == "campaign";
   if (chosen.empty() && !other_suite) {
-    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, all, bus, trajectory, safety, loop; got '%s'\n",
+    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, campaign, all, bus, trajectory, safety, loop; got '%s'\n",
                  names.c_str(), suite_name.c_str());
     return 2;
   }
@@ -127,7 +134,19 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (campaign.lift >= 0 && suite_name != "campaign") {
+    std::fprintf(stderr, "mgc-bench: --lift: expected --suite campaign, got --suite '%s'\n", suite_name.c_str());
+    return 2;
+  }
+  if (campaign.lift >= 0 && campaign.lift >= campaign.lifts) {
+    std::fprintf(stderr, "mgc-bench: --lift: expected a lift below --campaign-lifts (%d), got %d\n", campaign.lifts, campaign.lift);
+    return 2;
+  }
   const mgc::bench::KimBenchOptions kim{scenarios_dir, out_dir, command, runs, first_seed};
+  campaign.scenarios_dir = scenarios_dir;
+  campaign.out_dir = out_dir;
+  campaign.command = command;
+  campaign.first_seed = first_seed;
   // A suite that meets a scenario file it cannot read says so, like any other bad input.
   try {
     if (suite_name == "bus") return mgc::bench::run_bus_suite({scenarios_dir, out_dir, bus_samples});
@@ -140,6 +159,7 @@ int main(int argc, char** argv) {
       return mgc::bench::run_loop_suite(loop);
     }
     if (suite_name == "kim") return mgc::bench::run_kim_suite(kim);
+    if (suite_name == "campaign") return mgc::bench::run_campaign_suite(campaign);
     // OMPL's global seed takes effect only before its first random generator exists: set it now.
     if (!mgc::bench::seed_ompl(static_cast<std::uint32_t>(first_seed))) {
       std::fprintf(stderr, "mgc-bench: OMPL refused the global seed; BIT* runs will not repeat\n");
@@ -151,15 +171,17 @@ int main(int argc, char** argv) {
       const int code = run(options, command);
       if (code != 0) exit_code = code;
     }
-    // `all` is every seed paper's suite: the dual-crane one too.
+    // `all` is every seed paper's suite: the dual-crane one too, and the safety campaign.
     if (suite_name == "all") {
       const int code = mgc::bench::run_kim_suite(kim);
       if (code != 0) exit_code = code;
+      const int campaign_code = mgc::bench::run_campaign_suite(campaign);
+      if (campaign_code != 0) exit_code = campaign_code;
     }
     if (exit_code == 0) {
       // The tables first, where both streams go to one log.
       std::fflush(stdout);
-      std::fprintf(stderr, "mgc-bench: %zu suite(s) in %.1f s\n", chosen.size() + (suite_name == "all" ? 1 : 0),
+      std::fprintf(stderr, "mgc-bench: %zu suite(s) in %.1f s\n", chosen.size() + (suite_name == "all" ? 2 : 0),
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
     return exit_code;
