@@ -37,6 +37,7 @@
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/scenario.hpp"
 #include "mgc/sim/simulator.hpp"
+#include "mgc/sim/stepped_rig.hpp"
 
 namespace mgc::bench {
 
@@ -48,9 +49,8 @@ using guidance::TransitionReason;
 constexpr const char* kScenario = "thesis-steel-frame.yaml";
 //! The same lift with a working envelope (a wall and a ceiling): the envelope's share of the cycle.
 constexpr const char* kEnvelopeScenario = "thesis-steel-frame-road.yaml";
-constexpr std::int64_t kPhysicsUs = 1'000;        //!< the simulator's step, as mgc-sim runs it
-constexpr std::int64_t kStartUs = 1'000'000;      //!< the manual clock at construction
-constexpr std::int64_t kSimZeroUs = kStartUs + kPhysicsUs;  //!< clock time of simulation time 0
+constexpr std::int64_t kPhysicsUs = sim::SteppedRig::kPhysicsUs;  //!< the simulator's step, as mgc-sim runs it
+constexpr std::int64_t kSimZeroUs = sim::SteppedRig::kSimZeroUs;  //!< clock time of simulation time 0
 constexpr double kComputeOffsetS = 10.0;          //!< crane 2 swings into the first lift's west route
 constexpr double kReactionOffsetFirstS = 8.0;     //!< reaction runs: offsets spread over 8..12 s
 constexpr double kReactionOffsetLastS = 12.0;
@@ -97,36 +97,28 @@ firmware::ControllerConfig west_route_config() {
   return c;
 }
 
-//! The controller with its Hal and the simulated crane on one in-process loop bus with a manual
-//! clock: the simulator steps every millisecond, the cycle runs every cycle_us before the step of
-//! that millisecond (as tests/sim/sim_rig.hpp does at 10 ms).
+//! The controller on sim::SteppedRig: its Hal and the simulated crane on one in-process loop bus
+//! with a manual clock. The rig's own run() reads, calls back and writes in one call; the suite
+//! times each of the three, so it steps the rig itself, the cycle every cycle_us before the
+//! simulator's step of that millisecond, as SteppedRig::run does.
 class Rig {
  public:
-  Rig(const planning::Scenario& scenario_in, sim::SimConfig config, std::int64_t cycle_us_in)
-      : scenario(scenario_in), cycle_us(cycle_us_in), clock(kStartUs) {
-    static int serial = 0;
-    const std::string url = "loop:bench-loop-" + std::to_string(serial++);
-    auto a = hal::open_can_bus(url, &clock);
-    auto b = hal::open_can_bus(url, &clock);
-    if (!a || !b) throw std::runtime_error("cannot open " + url + ": " + a.error + b.error);
-    controller_bus = std::move(a.bus);
-    machine_bus = std::move(b.bus);
-    (void)controller_bus->set_error_mask(hal::kCanErrBusOff | hal::kCanErrRestarted);
-    sim = std::make_unique<sim::Simulator>(scenario, *machine_bus, std::move(config));
-    std::vector<double> vmax;
-    for (const auto& j : scenario.machine.joints) vmax.push_back(j.max_velocity);
-    hal = std::make_unique<hal::Hal>(*controller_bus, sim->plan(), vmax);
-    hal->set_valve_deadband(sim->config().valve_deadband);
-    controller = std::make_unique<firmware::Controller>(scenario, west_route_config());
+  Rig(const planning::Scenario& scenario, sim::SimConfig config, std::int64_t cycle_us)
+      : stepped(scenario, std::move(config), bus_name()), sim(stepped.sim.get()), hal(stepped.hal.get()) {
+    stepped.cycle_us = cycle_us;
+    stepped.calibrate_valves();
+    controller = std::make_unique<firmware::Controller>(stepped.scenario, west_route_config());
   }
 
   //! Runs until on_cycle returns false or the clock reaches end_us. commands() gives the cycle's
   //! operator commands before the timed calls; on_cycle(cycle, snapshot, output) sees each cycle.
   template <class Commands, class OnCycle>
   void run(std::int64_t end_us, Commands&& commands, OnCycle&& on_cycle) {
+    std::int64_t& t_us = stepped.t_us;
+    const std::int64_t cycle_us = stepped.cycle_us;
     while (t_us < end_us) {
       t_us += kPhysicsUs;
-      clock.set_us(t_us);
+      stepped.clock.set_us(t_us);
       if (t_us % cycle_us == 0) {
         const firmware::ControllerCommands cmd = commands(t_us);
         Cycle c;
@@ -151,15 +143,17 @@ class Rig {
     }
   }
 
-  const planning::Scenario& scenario;
-  std::int64_t cycle_us;
-  hal::ManualClock clock;
-  std::unique_ptr<hal::CanBus> controller_bus;
-  std::unique_ptr<hal::CanBus> machine_bus;
-  std::unique_ptr<sim::Simulator> sim;
-  std::unique_ptr<hal::Hal> hal;
+  sim::SteppedRig stepped;
+  sim::Simulator* sim;
+  hal::Hal* hal;
   std::unique_ptr<firmware::Controller> controller;
-  std::int64_t t_us = kStartUs;
+
+ private:
+  //! Each rig on a loop bus of its own.
+  static std::string bus_name() {
+    static int serial = 0;
+    return "bench-loop-" + std::to_string(serial++);
+  }
 };
 
 // --- 1. Cycle compute time --------------------------------------------------------------------
