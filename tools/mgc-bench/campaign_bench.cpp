@@ -824,7 +824,7 @@ int run_campaign_suite(const CampaignOptions& options) {
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 
     // Tallies, each with the lifts behind it so that any one replays with --lift N.
-    std::vector<int> contact_bad, contact_apart, contact_moving, lead_short, chart_over, below_ground, not_completed, false_stops, twin_incomplete,
+    std::vector<int> contact_bad, contact_apart, contact_moving, not_completed_contact, not_injected, lead_short, chart_over, below_ground, not_completed, false_stops, twin_incomplete,
         missed, late;
     std::vector<double> ratios_disturbed, ratios_all, leads;
     int judged_completion = 0, completed = 0, faults_judged = 0, faults_found = 0;
@@ -877,6 +877,8 @@ int run_campaign_suite(const CampaignOptions& options) {
           ++site.first;
         } else {
           not_completed.push_back(rec.index);
+          if (!std::isnan(r.contact_s) && r.contact_intruder_moving) not_completed_contact.push_back(rec.index);
+          if (rec.disturbance == Disturbance::Fault && rec.fault_text.empty()) not_injected.push_back(rec.index);
         }
         if (r.completed && rec.twin.completed && rec.twin.lift_s > 0.0) {
           const double ratio = r.lift_s / rec.twin.lift_s;
@@ -935,8 +937,10 @@ int run_campaign_suite(const CampaignOptions& options) {
               lift_list(lead_short).c_str(), met(lead_short.empty()));
     md += fmt("| (no target) an uncooperative intruder moving into the machine while it moves or stops | %zu (lifts %s) | listed |\n",
               contact_moving.size(), lift_list(contact_moving).c_str());
-    md += fmt("| >= 95 %% of lifts completed (lifts without a fault that must stop them: %d) | %.1f %% (%d); not completed: %s | %s |\n",
-              judged_completion, 100.0 * completion, completed, lift_list(not_completed).c_str(), met(completion >= 0.95));
+    md += fmt("| >= 95 %% of lifts completed (lifts without a fault that must stop them: %d) | %.1f %% (%d); not completed: %s; of them "
+              "after an intruder moved into the machine: %s; a fault not injected, the undisturbed lift never moved: %s | %s |\n",
+              judged_completion, 100.0 * completion, completed, lift_list(not_completed).c_str(), lift_list(not_completed_contact).c_str(),
+              lift_list(not_injected).c_str(), met(completion >= 0.95));
     md += fmt("| median lift time <= 1.3 × its undisturbed twin (completed disturbed lifts: %zu) | %.3f × (p95 %.3f ×, max %.3f ×) | %s |\n",
               ratios_disturbed.size(), median_ratio, ratios_disturbed.empty() ? 0.0 : percentile(ratios_disturbed, 0.95),
               ratios_disturbed.empty() ? 0.0 : *std::max_element(ratios_disturbed.begin(), ratios_disturbed.end()), met(median_ratio <= 1.3));
