@@ -382,6 +382,10 @@ LiftRun run_lift(const RunSetup& setup, FaultFinding* finding) {
         } else {
           r.contact_with = "other";
         }
+        // The machine's body in contact: the truth monitor's model is built as the controller's.
+        const int body = dynamic ? ts.dynamic_clearance.body : ts.clearance.body;
+        const auto bodies = controller.model().bodies();
+        if (body >= 0 && static_cast<std::size_t>(body) < bodies.size()) r.contact_with += " (" + bodies[static_cast<std::size_t>(body)].name + ")";
         r.contact_machine_at_rest = machine_at_rest(kRestSpeed);
         if (!std::isnan(last_warn_s) && t - last_warn_s <= kWarningGapS) r.approach_lead_s = t - last_rise_s;
       }

@@ -58,8 +58,8 @@ struct LiftRun {
   std::uint64_t samples_chart_exceeded = 0;
   std::uint64_t samples_below_ground = 0;
   std::uint64_t samples = 0;
-  //! The first contact (true clearance under 1 mm): when, with what, and whether the machine was
-  //! at rest and the obstacle moving then. [s]
+  //! The first contact (true clearance under 1 mm): when, with what (the obstacle and the
+  //! machine's body), and whether the machine was at rest and the obstacle moving then. [s]
   double contact_s = std::numeric_limits<double>::quiet_NaN();
   std::string contact_with;
   bool contact_machine_at_rest = false;
