@@ -97,10 +97,19 @@ PlausibilityMonitor::Travel PlausibilityMonitor::update_models(JointState& s, co
     const double limit = is_fast ? accel_fast : accel_slow;
     s.v[m] += std::clamp(step, -limit, limit);
   }
+  if (!joint.continuous && s.have_sample) {
+    // A joint on its end stop stands, whatever its command: the models may not carry it on (and,
+    // when the command turns back, start the way back from a speed into the stop it never had).
+    const double tolerance = joint.prismatic ? config_.tolerance_m : config_.tolerance_rad;
+    for (double& v : s.v) {
+      if (s.q >= joint.position_max - tolerance) v = std::min(v, 0.0);
+      if (s.q <= joint.position_min + tolerance) v = std::max(v, 0.0);
+    }
+  }
   const auto [lo, hi] = std::minmax({s.v[0], s.v[1], s.v[2], s.v[3]});
-  // The least distance the joint must have covered: only when the whole bracket has one sign.
-  const double least_speed = lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
-  s.expected_since_change += least_speed * dt_s;
+  // The least distance the joint must have covered, each way: only when the whole bracket has one sign.
+  if (lo > 0.0) s.expected_plus_since_change += lo * dt_s;
+  if (hi < 0.0) s.expected_minus_since_change -= hi * dt_s;
   return {lo * dt_s, hi * dt_s};
 }
 
@@ -112,7 +121,8 @@ void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs&
     s.have_sample = false;
     s.count = 0;
     s.frozen = 0;
-    s.expected_since_change = 0.0;
+    s.expected_plus_since_change = 0.0;
+    s.expected_minus_since_change = 0.0;
     return;
   }
   if (!in.updated[j] && s.have_sample) return;
@@ -130,7 +140,8 @@ void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs&
     s.q = raw;
     s.count = 0;
     s.frozen = 0;
-    s.expected_since_change = 0.0;
+    s.expected_plus_since_change = 0.0;
+    s.expected_minus_since_change = 0.0;
     return;
   }
   double delta = raw - s.raw;
@@ -146,13 +157,21 @@ void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs&
   if (raw == s.raw) {
     ++s.frozen;
     const double travel = joint.prismatic ? config_.stuck_travel_m : config_.stuck_travel_rad;
-    if (s.frozen >= config_.stuck_samples && s.expected_since_change > travel) {
+    // A joint standing on its end stop cannot move on, whatever its command asks.
+    double plus = s.expected_plus_since_change;
+    double minus = s.expected_minus_since_change;
+    if (!joint.continuous) {
+      plus = std::min(plus, std::max(joint.position_max - raw, 0.0));
+      minus = std::min(minus, std::max(raw - joint.position_min, 0.0));
+    }
+    if (s.frozen >= config_.stuck_samples && plus + minus > travel) {
       raise(PlausibilityFault::EncoderStuck, static_cast<int>(j), in.now_us);
       return;
     }
   } else {
     s.frozen = 0;
-    s.expected_since_change = 0.0;
+    s.expected_plus_since_change = 0.0;
+    s.expected_minus_since_change = 0.0;
   }
   s.raw = raw;
   s.sample_after_us = previous_cycle_us;
@@ -174,8 +193,15 @@ void PlausibilityMonitor::check_window(std::size_t j, std::int64_t now_us) noexc
     if (now_us - then.t_us <= config_.window_us) {
       const double travel = s.q - then.q;
       const double tolerance = joint.prismatic ? config_.tolerance_m : config_.tolerance_rad;
-      const double lo = s.lo - then.lo;
-      const double hi = s.hi - then.hi;
+      double lo = s.lo - then.lo;
+      double hi = s.hi - then.hi;
+      if (!joint.continuous) {
+        // The least travel toward an end stop is at most the room the joint had to it: a joint
+        // driven onto its end stop (an overshoot of the setpoint by the actuator's lag) stands
+        // there, as it must.
+        lo = std::min(lo, std::max(joint.position_max - then.q, 0.0));
+        hi = std::max(hi, std::min(joint.position_min - then.q, 0.0));
+      }
       const double below = lo - travel;  // > 0: less far in + than the least the model allows
       const double above = travel - hi;  // > 0: further in + than the most the model allows
       peak_window_ratio_ = std::max(peak_window_ratio_, std::max(below, above) / tolerance);

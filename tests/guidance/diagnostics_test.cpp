@@ -23,6 +23,8 @@ constexpr std::int64_t kCycleUs = 10'000;
 
 //! The boom of the thesis crane: 1.04 deg/s, 0.52 deg/s^2, 0..80 deg.
 PlausibilityJoint boom() { return {1.04 * kDeg, 0.52 * kDeg, 0.0, 80.0 * kDeg, false, false}; }
+//! The boom of the Cat 320: 24 deg/s, 48 deg/s^2, -50..60 deg.
+PlausibilityJoint excavator_boom() { return {24.0 * kDeg, 48.0 * kDeg, -50.0 * kDeg, 60.0 * kDeg, false, false}; }
 //! Its swing: continuous, 3.75 deg/s, 1.875 deg/s^2.
 PlausibilityJoint swing() { return {3.75 * kDeg, 1.875 * kDeg, -std::numbers::pi, std::numbers::pi, true, false}; }
 
@@ -36,6 +38,7 @@ struct Drive {
   double spool = 0.0;
   bool ignore = false;     //!< the valve keeps its last spool
   bool jammed = false;     //!< the joint does not move whatever the valve does
+  bool end_stops = false;  //!< the joint stops hard at its range's ends (a cylinder at the end of its stroke)
 
   void step(double command, double dt_s) {
     const double target_spool = ignore ? spool : std::clamp(command / joint.max_velocity, -1.0, 1.0);
@@ -45,6 +48,10 @@ struct Drive {
                                  joint.max_acceleration * dt_s);
     velocity += dv;
     position += velocity * dt_s;
+    if (end_stops && (position > joint.position_max || position < joint.position_min)) {
+      position = std::clamp(position, joint.position_min, joint.position_max);
+      velocity = 0.0;
+    }
   }
 };
 
@@ -303,6 +310,80 @@ TEST_CASE("a jammed joint that the valve drives is not following", "[guidance][d
   });
   CHECK(r.fault == PlausibilityFault::JointNotFollowing);
   CHECK_FALSE(r.cut_required);
+}
+
+//! Stop/start reversals as a follower makes them round a waypoint next to an end stop: 0.6 s
+//! toward the upper stop at 90 % of the speed, 0.2 s standing, 0.2 s back at half speed, again
+//! and again; from push_from_s on, one sustained push toward the stop.
+struct Reversals {
+  PlausibilityJoint joint;
+  double push_from_s = std::numeric_limits<double>::infinity();
+  double t_s = 0.0;
+  void operator()(std::vector<double>& cmd) {
+    const double phase_s = std::fmod(t_s, 1.0);
+    const bool push = t_s >= push_from_s || phase_s < 0.6;
+    cmd[0] = push ? 0.9 * joint.max_velocity : (phase_s < 0.8 ? 0.0 : -0.5 * joint.max_velocity);
+    t_s += 0.01;
+  }
+};
+
+TEST_CASE("a joint driven onto its end stop by stop/start reversals, its command still outward, is no fault", "[guidance][diagnostics]") {
+  // The excavator's boom 2 deg below its end stop: each push runs it onto the stop, where it stands
+  // while its command still asks for more (the actuator's lag overshoots the follower's setpoint).
+  for (const bool live_encoder : {true, false}) {
+    CAPTURE(live_encoder);
+    const PlausibilityJoint j = excavator_boom();
+    Bench b({j}, j.position_max - 2.0 * kDeg);
+    b.drives[0].end_stops = true;
+    Reversals reversals{j};
+    int flick = 0;
+    int cycles_on_stop = 0;
+    const PlausibilityResult& r = b.run(8.0, [&](std::vector<double>& cmd) {
+      reversals(cmd);
+      // A live encoder flickers by a count; a quiet one repeats its value on the stop.
+      b.lie[0] = live_encoder ? (++flick % 2) * 0.001 * kDeg : 0.0;
+      if (b.drives[0].position == j.position_max && cmd[0] > 0.0) ++cycles_on_stop;
+    });
+    CHECK(r.fault == PlausibilityFault::None);
+    CHECK(cycles_on_stop > 100);  // pushed against the stop for over a second in all
+  }
+}
+
+TEST_CASE("after stop/start reversals, a joint jammed short of its end stop and a valve that ignores commands are found", "[guidance][diagnostics]") {
+  const PlausibilityJoint j = excavator_boom();
+  SECTION("jammed 5 deg or more short of the end stop, pushed toward it") {
+    Bench b({j}, j.position_max - 40.0 * kDeg);
+    b.drives[0].end_stops = true;
+    Reversals reversals{j, 3.0};
+    REQUIRE(b.run(3.0, reversals).fault == PlausibilityFault::None);
+    REQUIRE(j.position_max - b.drives[0].position > 5.0 * kDeg);
+    b.drives[0].jammed = true;
+    b.drives[0].velocity = 0.0;
+    const std::int64_t fault_us = b.now_us;
+    int flick = 0;
+    const PlausibilityResult& r = b.run(2.0, [&](std::vector<double>& cmd) {
+      reversals(cmd);
+      b.lie[0] = (++flick % 2) * 0.001 * kDeg;
+    });
+    CHECK(r.fault == PlausibilityFault::JointNotFollowing);
+    CHECK(r.joint == 0);
+    // The bracket's least motion must first turn round from the way back: 0.5 s
+    // (docs/diagnostics.md, "Detection times").
+    CHECK(static_cast<double>(r.detected_us - fault_us) * 1e-6 <= 0.5);
+    WARN("jammed after reversals: JointNotFollowing " << static_cast<double>(r.detected_us - fault_us) * 1e-6 << " s after the jam");
+  }
+  SECTION("a valve that keeps its spool") {
+    Bench b({j}, j.position_max - 40.0 * kDeg);
+    b.drives[0].end_stops = true;
+    Reversals reversals{j};
+    REQUIRE(b.run(3.1, reversals).fault == PlausibilityFault::None);
+    b.drives[0].ignore = true;
+    const std::int64_t fault_us = b.now_us;
+    const PlausibilityResult& r = b.run(2.0, reversals);
+    CHECK(r.fault == PlausibilityFault::ValveNotObeying);
+    CHECK(r.cut_required);
+    CHECK(static_cast<double>(r.detected_us - fault_us) * 1e-6 <= 0.3);
+  }
 }
 
 TEST_CASE("the swing crossing the half turn is no step, and reset() forgets a latched fault", "[guidance][diagnostics]") {

@@ -147,7 +147,9 @@ class PlausibilityMonitor {
     double lo = 0.0;                  //!< integral of the bracket's lower velocity [rad | m]
     double hi = 0.0;                  //!< integral of the bracket's upper velocity [rad | m]
     int frozen = 0;                   //!< consecutive samples equal to the one before
-    double expected_since_change = 0.0;  //!< the model's least travel since the value last changed [rad | m]
+    //! The model's least travel in + and in - since the value last changed (each >= 0). [rad | m]
+    double expected_plus_since_change = 0.0;
+    double expected_minus_since_change = 0.0;
     std::array<Entry, kWindowEntries> ring{};
     std::size_t head = 0;             //!< next slot
     std::size_t count = 0;
