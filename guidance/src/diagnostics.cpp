@@ -79,34 +79,42 @@ void PlausibilityMonitor::raise(PlausibilityFault fault, int joint, std::int64_t
 
 PlausibilityMonitor::Travel PlausibilityMonitor::update_models(JointState& s, const PlausibilityJoint& joint, double command,
                                                                 double dt_s) noexcept {
-  // Four first-order models, fast and slow lag each on the largest and the smallest speed the
-  // command may give: the true velocity stays between the least and the most of them.
+  // The true velocity follows the command with a first-order lag in [lag_min_s, lag_max_s] and a
+  // gain and deadband within the tolerances. Its bounds: the upper one rises toward the largest
+  // speed the command may give as fast as any such actuator can and falls toward it as slowly;
+  // the lower one the other way round. Four fixed models (each lag on each speed) do not bound it
+  // after a reversal: a fast model has already come back to the new command while a slow one is
+  // still on the old one, and an actuator between them is past both.
   const double g = config_.gain_tolerance;
   const double deadband = config_.deadband_fraction * joint.max_velocity;
   const double magnitude = std::min(std::abs(command), joint.max_velocity);
-  const double high = sign(command) * std::min(magnitude * (1.0 + g) + (magnitude > 0.0 ? deadband : 0.0), joint.max_velocity * (1.0 + g));
-  const double low = sign(command) * std::max(0.0, magnitude * (1.0 - g) - deadband);
+  const double most = sign(command) * std::min(magnitude * (1.0 + g) + (magnitude > 0.0 ? deadband : 0.0), joint.max_velocity * (1.0 + g));
+  const double least = sign(command) * std::max(0.0, magnitude * (1.0 - g) - deadband);
+  const double target_hi = std::max(most, least);
+  const double target_lo = std::min(most, least);
   const double fast = 1.0 - std::exp(-dt_s / config_.lag_min_s);
   const double slow = 1.0 - std::exp(-dt_s / config_.lag_max_s);
   const double accel_fast = joint.max_acceleration * (1.0 + g) * dt_s;
   const double accel_slow = joint.max_acceleration * (1.0 - g) * dt_s;
-  const double targets[4] = {high, low, high, low};
-  for (std::size_t m = 0; m < 4; ++m) {
-    const bool is_fast = m < 2;
-    const double step = (targets[m] - s.v[m]) * (is_fast ? fast : slow);
-    const double limit = is_fast ? accel_fast : accel_slow;
-    s.v[m] += std::clamp(step, -limit, limit);
-  }
+  const double to_hi = target_hi - s.v_hi;
+  s.v_hi += to_hi > 0.0 ? std::min(to_hi * fast, accel_fast) : std::max(to_hi * slow, -accel_slow);
+  const double to_lo = target_lo - s.v_lo;
+  s.v_lo += to_lo < 0.0 ? std::max(to_lo * fast, -accel_fast) : std::min(to_lo * slow, accel_slow);
   if (!joint.continuous && s.have_sample) {
-    // A joint on its end stop stands, whatever its command: the models may not carry it on (and,
+    // A joint on its end stop stands, whatever its command: the bounds may not carry it on (and,
     // when the command turns back, start the way back from a speed into the stop it never had).
     const double tolerance = joint.prismatic ? config_.tolerance_m : config_.tolerance_rad;
-    for (double& v : s.v) {
-      if (s.q >= joint.position_max - tolerance) v = std::min(v, 0.0);
-      if (s.q <= joint.position_min + tolerance) v = std::max(v, 0.0);
+    if (s.q >= joint.position_max - tolerance) {
+      s.v_hi = std::min(s.v_hi, 0.0);
+      s.v_lo = std::min(s.v_lo, 0.0);
+    }
+    if (s.q <= joint.position_min + tolerance) {
+      s.v_hi = std::max(s.v_hi, 0.0);
+      s.v_lo = std::max(s.v_lo, 0.0);
     }
   }
-  const auto [lo, hi] = std::minmax({s.v[0], s.v[1], s.v[2], s.v[3]});
+  const double lo = s.v_lo;
+  const double hi = s.v_hi;
   // The least distance the joint must have covered, each way: only when the whole bracket has one sign.
   if (lo > 0.0) s.expected_plus_since_change += lo * dt_s;
   if (hi < 0.0) s.expected_minus_since_change -= hi * dt_s;

@@ -327,6 +327,32 @@ struct Reversals {
   }
 };
 
+TEST_CASE("a reversal and a stop right after it, as a follower corrects an overshoot, is no fault", "[guidance][diagnostics]") {
+  // The excavator's boom at 80 % of its speed; the command falls at the acceleration limit past
+  // zero to a correction back at 16 %, and the stop takes it to zero before the actuator, 0.15 s
+  // behind, has turned round. An actuator between the fastest and the slowest lag is then still on
+  // its way back when the fast ones have stopped and the slow ones still go forward.
+  const PlausibilityJoint j = excavator_boom();
+  for (const double hold_s : {0.1, 0.3, 0.5}) {
+    CAPTURE(hold_s);
+    Bench b({j}, 0.0);
+    double t = 0.0;
+    const double a = j.max_acceleration;
+    const double v0 = 0.8 * j.max_velocity;
+    const double back = -0.16 * j.max_velocity;
+    const double fall_s = (v0 - back) / a;
+    const PlausibilityResult& r = b.run(4.0, [&](std::vector<double>& cmd) {
+      if (t < 1.0) cmd[0] = std::min(a * t, v0);
+      else if (t < 1.0 + fall_s) cmd[0] = v0 - a * (t - 1.0);
+      else if (t < 1.0 + fall_s + hold_s) cmd[0] = back;
+      else cmd[0] = std::min(0.0, back + a * (t - 1.0 - fall_s - hold_s));
+      t += 0.01;
+    });
+    CHECK(r.fault == PlausibilityFault::None);
+    WARN("reversal then stop, correction held " << hold_s << " s: peak window ratio " << b.monitor.peak_window_ratio());
+  }
+}
+
 TEST_CASE("a joint driven onto its end stop by stop/start reversals, its command still outward, is no fault", "[guidance][diagnostics]") {
   // The excavator's boom 2 deg below its end stop: each push runs it onto the stop, where it stands
   // while its command still asks for more (the actuator's lag overshoots the follower's setpoint).
@@ -367,9 +393,9 @@ TEST_CASE("after stop/start reversals, a joint jammed short of its end stop and 
     });
     CHECK(r.fault == PlausibilityFault::JointNotFollowing);
     CHECK(r.joint == 0);
-    // The bracket's least motion must first turn round from the way back: 0.5 s
+    // The bracket's least motion must first turn round from the way back: 0.6 s
     // (docs/diagnostics.md, "Detection times").
-    CHECK(static_cast<double>(r.detected_us - fault_us) * 1e-6 <= 0.5);
+    CHECK(static_cast<double>(r.detected_us - fault_us) * 1e-6 <= 0.6);
     WARN("jammed after reversals: JointNotFollowing " << static_cast<double>(r.detected_us - fault_us) * 1e-6 << " s after the jam");
   }
   SECTION("a valve that keeps its spool") {

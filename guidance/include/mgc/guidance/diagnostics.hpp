@@ -143,7 +143,8 @@ class PlausibilityMonitor {
     //! SYNC of the cycle that reads it or of the one before). [µs]
     std::int64_t sample_after_us = 0;
     double q = 0.0;                   //!< unwrapped measured position [rad | m]
-    std::array<double, 4> v{};        //!< the bracketing models' velocities [rad/s | m/s]
+    double v_lo = 0.0;                //!< least velocity the actuator model allows [rad/s | m/s]
+    double v_hi = 0.0;                //!< most velocity the actuator model allows [rad/s | m/s]
     double lo = 0.0;                  //!< integral of the bracket's lower velocity [rad | m]
     double hi = 0.0;                  //!< integral of the bracket's upper velocity [rad | m]
     int frozen = 0;                   //!< consecutive samples equal to the one before
@@ -165,7 +166,7 @@ class PlausibilityMonitor {
   };
 
   void raise(PlausibilityFault fault, int joint, std::int64_t now_us) noexcept;
-  //! Advances the four models over dt_s on this command; returns the bracket's travel over the step.
+  //! Advances the velocity bounds over dt_s on this command; returns the bracket's travel over the step.
   Travel update_models(JointState& s, const PlausibilityJoint& joint, double command, double dt_s) noexcept;
   void check_samples(std::size_t j, const PlausibilityInputs& in) noexcept;
   void check_window(std::size_t j, std::int64_t now_us) noexcept;
