@@ -214,8 +214,9 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
     throw std::invalid_argument("controller: follow_speed_fraction must be in (0, 1]");
   }
   if (n_ > static_cast<int>(guidance::OneJointAtATime::kMaxJoints)) throw std::invalid_argument("controller: too many joints");
-  if (!(config.obstacle_speed_floor_m_s >= 0.0) || config.obstacle_speed_window_us <= 0) {
-    throw std::invalid_argument("controller: obstacle_speed_floor_m_s must be >= 0 and obstacle_speed_window_us > 0");
+  if (!(config.obstacle_speed_floor_m_s >= 0.0) || config.obstacle_speed_window_us <= 0 || !(config.obstacle_sigma_factor >= 0.0)) {
+    throw std::invalid_argument(
+        "controller: obstacle_speed_floor_m_s and obstacle_sigma_factor must be >= 0 and obstacle_speed_window_us > 0");
   }
   for (std::size_t i = 0; i < scenario_.dynamic_obstacles.size(); ++i) {
     const planning::DynamicObstacleSpec& d = scenario_.dynamic_obstacles[i];
@@ -375,6 +376,9 @@ void Controller::track_obstacles(const hal::SensorSnapshot& s) noexcept {
   if (!all_measured) speed_m_s = std::max(speed_m_s, config_.stop_check.dynamic_obstacle_speed_m_s);
   obstacle_speed_m_s_ = speed_m_s;
   stop_check_.set_dynamic_obstacle_speed(speed_m_s);
+  double sigma_m = 0.0;
+  for (const ObstacleTracker& t : trackers_) sigma_m = std::max(sigma_m, t.valid(now_us_) && t.still() ? t.position_sigma_m() : 0.0);
+  stop_check_.set_dynamic_obstacle_allowance(config_.obstacle_sigma_factor * sigma_m);
 }
 
 void Controller::run_safety() noexcept {

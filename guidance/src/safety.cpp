@@ -147,7 +147,7 @@ StopCheckResult StopCheck::check(const MachineState& state) noexcept {
   // at most rate_m_s, so clearance d at one sample stays above the warning margin for
   // (d - warning) / rate_m_s. Steps never fall below the finest, so at most max_samples + 1 samples.
   const double min_dt_s = intervals > 0 ? r.stop_duration_s / intervals : 0.0;
-  const double dynamic_reach_m = config_.dynamic_obstacle_speed_m_s * r.stop_duration_s;
+  const double dynamic_reach_m = config_.dynamic_obstacle_speed_m_s * r.stop_duration_s + dynamic_allowance_m_;
   constexpr double kFar = 1e9;  //!< stands for "no envelope limit" [m]
 
   planning::JointVector q(n);

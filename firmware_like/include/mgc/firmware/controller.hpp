@@ -58,6 +58,11 @@ struct ControllerConfig {
   double obstacle_speed_floor_m_s = 0.3;
   //! Span over which an obstacle's speed is measured from its tracked poses. [µs]
   std::int64_t obstacle_speed_window_us = 2'000'000;
+  //! The stop check reduces the clearance to the tracked obstacles by this many of the largest
+  //! 1-sigma of a standing obstacle's averaged pose (ObstacleTracker::still, position_sigma_m):
+  //! the average's own uncertainty. A moving obstacle's pose is one fit, whose UWB error the stop
+  //! margin covers (guidance::StopCheckConfig::stop_margin_m). [-]
+  double obstacle_sigma_factor = 2.0;
   //! A repair after a safety stop waits until no obstacle moves faster than its floor plus this:
   //! a path planned around an obstacle still on its way would be cut again at once. [m/s]
   double settled_speed_m_s = 0.2;

@@ -119,6 +119,11 @@ class StopCheck {
   //! How fast the dynamic obstacles may approach from the next check on, e.g. from their tracked
   //! motion (the configured value is the default until then). [m/s], >= 0
   void set_dynamic_obstacle_speed(double speed_m_s) noexcept { config_.dynamic_obstacle_speed_m_s = speed_m_s; }
+  //! How far the dynamic obstacles may stand from their estimated poses (their estimate's
+  //! uncertainty, e.g. twice the tracker's 1-sigma): their clearance is reduced by this besides
+  //! their reach, from the next check on. [m], >= 0; 0 by default
+  void set_dynamic_obstacle_allowance(double allowance_m) noexcept { dynamic_allowance_m_ = allowance_m; }
+  [[nodiscard]] double dynamic_obstacle_allowance() const noexcept { return dynamic_allowance_m_; }
   //! A machine that must get away from an obstacle it stopped next to (docs/safety.md, "Retreat"):
   //! from the next check on, a stop that undercuts the stop margin is a Stop only when the machine's
   //! own motion also brings it nearer than floor_m (min_geometric_m < floor_m); otherwise the
@@ -149,6 +154,7 @@ class StopCheck {
   Envelope* envelope_;
   StopCheckConfig config_;
   double retreat_floor_m_ = std::numeric_limits<double>::infinity();
+  double dynamic_allowance_m_ = 0.0;  //!< [m]
   //! The fixed bodies' clearance to the static obstacles: constant, so measured at construction.
   planning::Clearance fixed_static_;
   std::array<JointLimits, kMaxJoints> limits_{};
