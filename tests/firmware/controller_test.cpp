@@ -54,6 +54,8 @@ struct Run {
   //! Largest swing the operator was told to make in one move. [deg]
   double max_said_swing_deg = 0.0;
   std::vector<std::string> transitions;
+  //! Safety stops whose nearest contact along the stop was a dynamic obstacle.
+  int dynamic_stops = 0;
   std::int64_t done_us = -1;
   //! The true clearance to crane 2 when the first path after a safety stop was loaded, and the
   //! least since then. [m]
@@ -102,6 +104,11 @@ struct Run {
                                        std::to_string(controller.stop_check().min_clearance_m) + " m, obstacle speed " +
                                        std::to_string(controller.obstacle_speed_m_s())
                                  : std::string()));
+    }
+    if (out.supervisor.transitioned && out.supervisor.state == guidance::SupervisorState::Stopping &&
+        out.supervisor.reason == guidance::TransitionReason::SafetyStopZone &&
+        controller.stop_check().nearest.with == planning::Contact::With::Dynamic) {
+      ++dynamic_stops;
     }
     if (out.supervisor.reason == guidance::TransitionReason::GoalReached && done_us < 0) done_us = s.t_us;
     if (std::isfinite(controller.approach_s())) {
@@ -488,21 +495,36 @@ TEST_CASE("the excavator's stick tag agrees with the encoders through the move, 
     config.seed = seed;
     return config;
   };
-  SECTION("fault-free, over three noise seeds: the goal, no finding") {
-    // Seed 33 is not among them: with it the plausibility monitor raises JointNotFollowing on this
-    // site with or without the tag, a finding of its own that is not the tag's.
-    for (const std::uint64_t seed : {31, 32, 34}) {
+  SECTION("fault-free, over ten noise seeds: the goal, no finding, no stop for the truck the noise-free move does not make") {
+    // The noise-free move stops for truck 2 as it drives in, and once more where its re-planned
+    // path passes the parked truck within the stop check's reach. Noise may add no stop for the
+    // truck: standing, it is posed by the average of its fixes (docs/control-loop.md); nor a
+    // finding: the monitor's follow bracket bounds the actuator after reversals and on its end
+    // stops (docs/diagnostics.md). The goal holds the bucket 5-6 cm beyond the stop margin above
+    // the loading truck's bed: with some noise seeds (38) the boom's last metres there undercut it
+    // by a millimetre, a stop for the static bed that is counted apart.
+    Run quiet("excavator-truck.yaml", SimRig::quiet_config(), "ctl-excavator-tag", firmware::ControllerConfig{}, stick_tag);
+    while (quiet.done_us < 0 && quiet.rig.t_us < SimRig::at_sim_s(120.0)) quiet.rig.run(5'000'000);
+    REQUIRE(quiet.controller.stats().goals_reached == 1);
+    REQUIRE(quiet.dynamic_stops >= 1);
+    int static_stops = 0;
+    for (std::uint64_t seed = 31; seed <= 40; ++seed) {
       CAPTURE(seed);
       Run run("excavator-truck.yaml", noisy(seed), "ctl-excavator-tag", firmware::ControllerConfig{}, stick_tag);
       while (run.done_us < 0 && run.rig.t_us < SimRig::at_sim_s(120.0)) run.rig.run(5'000'000);
       INFO(run.log());
       const firmware::ControllerStats& st = run.controller.stats();
+      CAPTURE(quiet.dynamic_stops, run.dynamic_stops, st.safety_stops, st.plausibility_peak_ratio);
       CHECK(st.goals_reached == 1);
       CHECK(st.plausibility_fault == guidance::PlausibilityFault::None);
+      CHECK(run.dynamic_stops <= quiet.dynamic_stops);
       CHECK(st.machine_tag_fixes_judged > 50);
-      WARN("excavator, seed " << seed << ": " << st.machine_tag_fixes_judged << " stick tag fixes judged, the largest "
-                              << st.machine_tag_peak_ratio << " of its threshold");
+      static_stops += st.safety_stops - run.dynamic_stops;
+      WARN("excavator, seed " << seed << ": " << run.dynamic_stops << " stops for the truck (noise-free: " << quiet.dynamic_stops << "), "
+                              << st.safety_stops - run.dynamic_stops << " for the site; " << st.machine_tag_fixes_judged
+                              << " stick tag fixes judged, the largest " << st.machine_tag_peak_ratio << " of its threshold");
     }
+    CHECK(static_stops <= 1);
   }
   SECTION("a stuck arm encoder while the arm creeps: without the tag found when the arm must move, with it sooner") {
     // From 0.5 s the arm's encoder sticks and the arm creeps at 4 deg/s while the plan moves other
@@ -560,3 +582,4 @@ TEST_CASE("the controller refuses a site's guidance margins that do not fit toge
   s.guidance->planning_margin_m = 1.5;
   CHECK(message().empty());
 }
+
