@@ -60,9 +60,18 @@ struct Site {
     rig.hal->set_pilot_enabled(out.pilot_enable);
     for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
     if (out.supervisor.transitioned) {
-      char line[160];
-      std::snprintf(line, sizeof line, "%.2f s %s (%s)\n", static_cast<double>(s.t_us - SimRig::kSimZeroUs) * 1e-6,
-                    guidance::to_string(out.supervisor.state), guidance::to_string(out.supervisor.reason));
+      char line[240];
+      double allowance_m = 0.0;
+      for (std::size_t t = 0; t < controller.num_trackers(); ++t) {
+        const firmware::ObstacleTracker& tracker = controller.tracker(t);
+        if (tracker.still()) allowance_m = std::max(allowance_m, 2.0 * tracker.position_sigma_m());
+      }
+      const guidance::StopCheckResult& check = controller.stop_check();
+      std::snprintf(line, sizeof line, "%.2f s %s (%s): nearest %d/%d at %.3f m (geometric %.3f m), obstacle speed %.2f m/s, allowance %.3f m\n",
+                    static_cast<double>(s.t_us - SimRig::kSimZeroUs) * 1e-6, guidance::to_string(out.supervisor.state),
+                    guidance::to_string(out.supervisor.reason), static_cast<int>(check.nearest.with), check.nearest.other,
+                    check.min_clearance_m, check.min_geometric_m, controller.obstacle_speed_m_s(),
+                    allowance_m);
       log += line;
     }
     if (out.supervisor.reason == guidance::TransitionReason::GoalReached) done = true;
@@ -142,7 +151,9 @@ TEST_CASE("measure: false stops and faults over noise seeds on four sites", "[.m
   // Not run by default: the rate of runs with more safety stops than the noise-free run, with a
   // plausibility finding, or short of the goal, over 30 noise seeds per site.
   const int seeds = std::getenv("MGC_MEASURE_SEEDS") != nullptr ? std::atoi(std::getenv("MGC_MEASURE_SEEDS")) : 30;
+  const char* only = std::getenv("MGC_MEASURE_SITE");
   for (const char* file : {"excavator-truck.yaml", "excavator-cycle.yaml", "excavator-pipelines.yaml", "thesis-steel-frame.yaml"}) {
+    if (only != nullptr && std::string(only) != file) continue;
     Site quiet(file, SimRig::quiet_config());
     quiet.run(400.0);
     const int quiet_stops = quiet.controller.stats().safety_stops;
@@ -163,7 +174,7 @@ TEST_CASE("measure: false stops and faults over noise seeds on four sites", "[.m
                     guidance::to_string(st.plausibility_fault), site.log.c_str());
       }
     }
-    std::printf("%s: quiet run %d safety stops; over %d noise seeds: %d with more stops (most %d), %d with a plausibility finding, %d short of the goal\n",
-                file, quiet_stops, seeds, extra_stops, most_stops, findings, short_of_goal);
+    std::printf("%s: quiet run %d safety stops, %d goals; over %d noise seeds: %d with more stops (most %d), %d with a plausibility finding, %d short of the goal\n",
+                file, quiet_stops, static_cast<int>(quiet.controller.stats().goals_reached), seeds, extra_stops, most_stops, findings, short_of_goal);
   }
 }
