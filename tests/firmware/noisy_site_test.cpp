@@ -152,16 +152,10 @@ TEST_CASE("measure: false stops and faults over noise seeds on four sites", "[.m
   // plausibility finding, or short of the goal, over 30 noise seeds per site (MGC_MEASURE_SEEDS,
   // MGC_MEASURE_SITE to change them).
   const int seeds = std::getenv("MGC_MEASURE_SEEDS") != nullptr ? std::atoi(std::getenv("MGC_MEASURE_SEEDS")) : 30;
-  // excavator-cycle and excavator-pipelines carry no guidance section: with a crane's margins the
-  // boom by the pipeline leaves no valid start. They take excavator-truck's excavator margins.
-  const auto margins = planning::io::load_scenario(test::scenario_path("excavator-truck.yaml")).guidance;
-  const auto excavator_margins = [&](planning::Scenario& s) {
-    if (!s.guidance) s.guidance = margins;
-  };
   const char* only = std::getenv("MGC_MEASURE_SITE");
   for (const char* file : {"excavator-truck.yaml", "excavator-cycle.yaml", "excavator-pipelines.yaml", "thesis-steel-frame.yaml"}) {
     if (only != nullptr && std::string(only) != file) continue;
-    Site quiet(file, SimRig::quiet_config(), excavator_margins);
+    Site quiet(file, SimRig::quiet_config());
     quiet.run(400.0);
     const int quiet_stops = quiet.controller.stats().safety_stops;
     if (quiet.controller.stats().goals_reached != 1) std::printf("%s without noise:\n%s", file, quiet.log.c_str());
@@ -170,7 +164,7 @@ TEST_CASE("measure: false stops and faults over noise seeds on four sites", "[.m
     int short_of_goal = 0;
     int most_stops = 0;
     for (int seed = 1; seed <= seeds; ++seed) {
-      Site site(file, noisy(static_cast<std::uint64_t>(1000 + seed)), excavator_margins);
+      Site site(file, noisy(static_cast<std::uint64_t>(1000 + seed)));
       site.run(400.0);
       const firmware::ControllerStats& st = site.controller.stats();
       extra_stops += st.safety_stops > quiet_stops ? 1 : 0;

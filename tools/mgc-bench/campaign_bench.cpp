@@ -472,17 +472,6 @@ LiftRecord run_campaign_lift(const CampaignOptions& options, int index) {
   rec.site = site.file;
   planning::Scenario base = planning::io::load_scenario((std::filesystem::path(options.scenarios_dir) / site.file).string());
   freeze_obstacles(base);
-  // excavator-cycle and excavator-pipelines ship without mgc's margins; the controller's defaults
-  // (a crane's: 1 m to plan) refuse their start, the bucket in the trench. They dig the trench
-  // excavator-truck.yaml digs: its margins.
-  if (base.machine.kind == planning::MachineKind::Excavator && !base.guidance) {
-    planning::GuidanceSpec g;
-    g.stop_margin_m = 0.05;
-    g.warning_margin_m = 0.25;
-    g.planning_margin_m = 0.35;
-    g.escape_margin_m = 0.3;
-    base.guidance = g;
-  }
   const int n = static_cast<int>(base.machine.joints.size());
   const planning::JointVector goal = draw_goal(base, rng, rec.goal_draws);
   rec.goal.assign(goal.data(), goal.data() + n);
