@@ -119,6 +119,7 @@ enum AlertKind : std::size_t {
   kAlertApproach,
   kAlertCutoff,
   kAlertMachineTag,
+  kAlertSite,
 };
 
 std::unique_ptr<guidance::Envelope> make_envelope(const planning::Scenario& scenario, const planning::MachineModel& model) {
@@ -174,9 +175,11 @@ std::int8_t fault_source(guidance::TransitionReason r) noexcept {
 
 }  // namespace
 
-Controller::Controller(const planning::Scenario& scenario, const ControllerConfig& config)
+Controller::Controller(const planning::Scenario& scenario, const ControllerConfig& config) : Controller(scenario, config, nullptr) {}
+
+Controller::Controller(const planning::Scenario& scenario, const ControllerConfig& config, const SiteMemberConfig* site)
     : config_(with_site_margins(config, scenario)),
-      scenario_(scenario),
+      scenario_(site != nullptr ? site_member_scenario(scenario, *site) : scenario),
       model_(planning::build_model(scenario_)),
       plan_world_(planning_world(scenario_, *model_, config_.planning_margin_m,
                                  config.obstacle_speed_floor_m_s * longest_stop_s(*model_))),
@@ -274,6 +277,25 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   v_probe_ = q_raw_;
   snap_.machine_kind = model_->kind();
   snap_.num_joints = n_;
+  site_meet_s_.fill(std::numeric_limits<double>::infinity());
+  if (site != nullptr) {
+    site_ = std::make_unique<SiteMemberConfig>(*site);
+    site_roster_ = make_site_roster(site_->site);
+    site_peers_ = make_site_peers(*site_, *model_, static_cast<int>(scenario.dynamic_obstacles.size()));
+    const int me = site_roster_.index_of(site_->machine_id);
+    site_priority_ = site_roster_.machines[static_cast<std::size_t>(me)].priority;
+    if (!(site_->scan_step_s > 0.0) || !(site_->slow_down_scale > 0.0 && site_->slow_down_scale <= 1.0)) {
+      throw std::invalid_argument("controller: site scan_step_s must be > 0 and slow_down_scale in (0, 1]");
+    }
+    site_q_ = q_raw_;
+    site_q2_ = q_raw_;
+    site_v_ = q_raw_;
+    site_state_.machine_id = site_->machine_id;
+    site_state_.priority = site_priority_;
+    site_state_.num_joints = static_cast<std::int8_t>(n_);
+    site_plan_.machine_id = site_->machine_id;
+    site_plan_.num_joints = static_cast<std::int8_t>(n_);
+  }
 }
 
 void Controller::estimate(const hal::SensorSnapshot& s, double dt_s) noexcept {
@@ -668,6 +690,16 @@ void Controller::follow(double dt_s, double speed_scale) noexcept {
 
 ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_us, const ControllerCommands& commands,
                                   bool watchdog_tripped) noexcept {
+  return step_impl(s, dt_us, commands, watchdog_tripped, nullptr);
+}
+
+ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_us, const ControllerCommands& commands,
+                                  bool watchdog_tripped, const SiteInputs& site) noexcept {
+  return step_impl(s, dt_us, commands, watchdog_tripped, &site);
+}
+
+ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_t dt_us, const ControllerCommands& commands,
+                                       bool watchdog_tripped, const SiteInputs* site) noexcept {
   now_us_ = s.t_us;
   ++stats_.cycles;
   const double dt_s = static_cast<double>(std::max<std::int64_t>(dt_us, 1)) * 1e-6;
@@ -678,6 +710,7 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
     run_safety();
     predict_approach();
   }
+  if (site_ && site != nullptr && have_reading_) site_cycle(*site);
 
   // The sensors and the valve against the previous cycle's command, which the valve applies now.
   const guidance::PlausibilityResult& plausible = monitor_.update(
@@ -737,6 +770,9 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
     in.safety.warning_speed_scale = check_.speed_scale;
     if (rcl_) in.safety.rcl_stage = rcl_result_.stage;
     if (envelope_) in.safety.envelope_violated = envelope_result_.violated;
+    // Stopped for a higher-priority machine: the lower one re-plans round its plan, so the
+    // supervisor takes it as a safety stop (a higher one only waits: the speed factor below).
+    if (site_replan_) in.safety.stop_check = guidance::StopCheckStatus::Stop;
   }
   in.commands.stop = commands.stop;
   in.commands.goal_request = commands.goal_request;
@@ -789,7 +825,7 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
 
   envelope_slowing_ = false;
   if (out.motion_permitted && joints_valid_) {
-    follow(dt_s, out.speed_scale);
+    follow(dt_s, out.speed_scale * site_speed_scale_);
     for (int j = 0; j < n_; ++j) v_command_[j] = v_target_[static_cast<std::size_t>(j)];
     if (envelope_) {
       // Only the components that approach a limit are slowed, to zero at it; the rest pass.
@@ -839,6 +875,10 @@ ControllerOutput Controller::step(const hal::SensorSnapshot& s, std::int64_t dt_
   }
 
   fill_snapshot(s, out);
+  if (site_) {
+    site_fill_state(out);
+    site_fill_plan();
+  }
 
   ControllerOutput result;
   result.velocity = limiter_.velocity();
@@ -1040,10 +1080,298 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
   raise(kAlertMachineTag, tag_check_.stale_count() > 0 && supervisor_.state() != SupervisorState::Init, A::SEVERITY_WARN,
         A::SOURCE_SENSING, A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_NONE, static_cast<double>(tag_check_.stale_count()), kNaN,
         tag_check_.stale_tag());
+  // The site: a stop or slow-down the rules ask for, or a machine stale or never heard (index: its id).
+  const bool site_alert = site_ && have_reading_ && (site_motion_ != SiteMotion::Proceed || site_stale_);
+  const int site_for = site_ ? site_roster_.index_of(site_decision_.motion_for_id) : -1;
+  raise(kAlertSite, site_alert,
+        site_motion_ == SiteMotion::Stop ? A::SEVERITY_STOP : (site_motion_ == SiteMotion::SlowDown ? A::SEVERITY_SLOW_DOWN : A::SEVERITY_WARN),
+        site_stale_ ? A::SOURCE_SENSING : A::SOURCE_COLLISION, A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_SECOND,
+        site_for >= 0 ? site_meet_s_[static_cast<std::size_t>(site_for)] : kNaN, site_ ? site_->rules.horizon_s : kNaN, site_alert_id_);
   snap_.num_alerts = 0;
   for (std::size_t k = 0; k < kAlertKinds && snap_.num_alerts < kSnapshotMaxAlerts; ++k) {
     if (alert_active_[k]) snap_.alerts[static_cast<std::size_t>(snap_.num_alerts++)] = alerts_[k];
   }
+}
+
+double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
+                              const planning::JointVector& my_q) noexcept {
+  p.model->forward_kinematics(peer_q, p.kinematics);
+  for (std::size_t k = 0; k < p.moving_bodies.size(); ++k) {
+    const auto b = static_cast<std::size_t>(p.moving_bodies[k]);
+    const planning::BodyState& body = p.kinematics.bodies[b];
+    const bool box = p.model->bodies()[b].shape == planning::BodyShape::Box;
+    const Eigen::Vector3d grown = body.size_m.cwiseMax(Eigen::Vector3d::Constant(0.01)) +
+                                  Eigen::Vector3d(2.0 * grow_m, 2.0 * grow_m, box ? 2.0 * grow_m : 0.0);
+    p.meet_world->set_dynamic_part_size(static_cast<int>(k), 0, grown);
+    p.meet_world->set_dynamic_pose(static_cast<int>(k), body.world_from_body);
+  }
+  return p.meet_world->clearance(my_q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
+}
+
+void Controller::site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept {
+  p.model->forward_kinematics(q, p.kinematics);
+  const int moving = static_cast<int>(p.moving_bodies.size());
+  for (int k = 0; k < moving; ++k) {
+    const auto b = static_cast<std::size_t>(p.moving_bodies[static_cast<std::size_t>(k)]);
+    const planning::BodyState& body = p.kinematics.bodies[b];
+    const bool box = p.model->bodies()[b].shape == planning::BodyShape::Box;
+    const Eigen::Vector3d grown = body.size_m.cwiseMax(Eigen::Vector3d::Constant(0.01)) +
+                                  Eigen::Vector3d(2.0 * grow_m, 2.0 * grow_m, box ? 2.0 * grow_m : 0.0);
+    const int index = p.world_first + copy * moving + k;
+    plan_world_->set_dynamic_part_size(index, 0, grown);
+    plan_world_->set_dynamic_pose(index, body.world_from_body);
+    escape_world_->set_dynamic_part_size(index, 0, grown);
+    escape_world_->set_dynamic_pose(index, body.world_from_body);
+  }
+}
+
+void Controller::site_park(SitePeerModel& p, int from_copy) noexcept {
+  const int moving = static_cast<int>(p.moving_bodies.size());
+  for (int c = from_copy; c < site_->plan_copies; ++c) {
+    for (int k = 0; k < moving; ++k) {
+      const Eigen::Isometry3d parked = site_parked_pose(p.roster_index, c, k);
+      plan_world_->set_dynamic_pose(p.world_first + c * moving + k, parked);
+      escape_world_->set_dynamic_pose(p.world_first + c * moving + k, parked);
+    }
+  }
+}
+
+void Controller::site_cycle(const SiteInputs& in) noexcept {
+  const SiteRulesConfig& rules = site_->rules;
+  const double margin_m = config_.stop_check.stop_margin_m;
+  const double skew_s = static_cast<double>(rules.max_skew_us) * 1e-6;
+  const double step_s = site_->scan_step_s;
+  // Far enough to see the lower-priority machine's slow-down lead: L + H with L = 2H.
+  const double horizon_s = 3.0 * rules.horizon_s;
+  // My motion carried forward: per joint the fastest of the command, the estimate and, on a path,
+  // the follower's speed toward its target, so that a machine the site holds still sees its way.
+  double my_speed_m_s = 0.0;
+  double my_reach_m = 0.0;
+  double my_bound_m_s = 0.0;
+  for (int j = 0; j < n_; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    const planning::JointSpec& spec = model_->joints()[k];
+    double v = std::abs(limiter_.velocity()[k]) > std::abs(velocity_[k]) ? limiter_.velocity()[k] : velocity_[k];
+    if (following_ && target_ < path_size_ && j == moving_joint_) {
+      const double toward = target_unwrapped_[j] - q_unwrapped_[j];
+      const double intended = std::copysign(follow_limits_[k].max_velocity, toward);
+      if (std::abs(toward) > kReachedTolerance && std::abs(intended) > std::abs(v)) v = intended;
+    }
+    site_v_[j] = v;
+    const double bound = model_->displacement_bound(j);
+    my_speed_m_s += bound * std::abs(v);
+    my_reach_m += bound * v * v / (2.0 * spec.max_acceleration);
+    my_bound_m_s += bound * spec.max_velocity;
+  }
+  const bool planning_now = supervisor_.state() == guidance::SupervisorState::Planning ||
+                            supervisor_.state() == guidance::SupervisorState::Replanning;
+  bool stale_stop = false;
+  site_stale_ = false;
+  site_alert_id_ = 0;
+  for (SitePeerModel& p : site_peers_) {
+    const auto r = static_cast<std::size_t>(p.roster_index);
+    const SitePeerMessages& m = in.peers[r];
+    SitePeerInput& pin = site_in_[r];
+    pin.state = m.has_state ? &m.state : nullptr;
+    pin.state_received_us = m.state_received_us;
+    pin.plan = m.has_plan ? &m.plan : nullptr;
+    pin.meet_in_s = std::numeric_limits<double>::infinity();
+    site_meet_s_[r] = pin.meet_in_s;
+    const std::int64_t age_us = now_us_ - m.state_received_us;
+    const bool live = m.has_state && age_us <= rules.stale_after_us();
+    const int nq = std::min<int>(m.state.num_joints, p.model->dof());
+    double peer_speed_m_s = 0.0;
+    double peer_reach_m = 0.0;
+    if (m.has_state) {
+      for (int j = 0; j < nq; ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        p.q[j] = m.state.joint_position[k];
+        peer_speed_m_s += p.model->displacement_bound(j) * std::abs(m.state.joint_velocity[k]);
+        peer_reach_m += p.model->displacement_bound(j) * std::abs(m.state.stop_travel[k]);
+      }
+    }
+    if (!live) {
+      site_stale_ = true;
+      if (site_alert_id_ == 0) site_alert_id_ = p.machine_id;
+      // Its UWB tags are not posed here: a stale machine is its frozen pose grown by its speed
+      // bound over the time unheard, or, never heard, anywhere it can reach.
+      if (!m.has_state) {
+        stale_stop = true;
+        site_park(p, 0);
+        continue;
+      }
+      const double grow_m = peer_reach_m + p.max_point_speed_m_s * (static_cast<double>(age_us) * 1e-6 + skew_s);
+      const double gap_m = site_gap_m(p, p.q, grow_m, q_wrapped_) - my_reach_m;
+      stale_stop = stale_stop || gap_m <= margin_m;
+      if (!planning_now) {
+        site_pose_copy(p, 0, p.q, grow_m);
+        site_park(p, 1);
+      }
+      continue;
+    }
+    const double t0_s = static_cast<double>(age_us) * 1e-6;
+    const bool uses_plan = m.state.plan_id != 0 && m.has_plan && m.plan.plan_id == m.state.plan_id;
+    const double grow_m = peer_reach_m + peer_speed_m_s * skew_s + 0.5 * step_s * (my_bound_m_s + p.max_point_speed_m_s);
+    // Carried forward from the state, which is t0_s old: along its plan, or at its velocity.
+    const auto predict = [&](double tau_s, planning::JointVector& q) noexcept {
+      if (uses_plan) {
+        site_plan_at(m.plan, m.state.plan_time_s + t0_s + tau_s, q);
+        return;
+      }
+      for (int j = 0; j < nq; ++j) q[j] = m.state.joint_position[static_cast<std::size_t>(j)] + m.state.joint_velocity[static_cast<std::size_t>(j)] * (t0_s + tau_s);
+    };
+    double meet_s = std::numeric_limits<double>::infinity();
+    for (double tau_s = 0.0; tau_s <= horizon_s + 1e-9; tau_s += step_s) {
+      predict(tau_s, site_q2_);
+      for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + site_v_[j] * tau_s;
+      const double gap_m = site_gap_m(p, site_q2_, grow_m, site_q_) - my_reach_m;
+      if (tau_s == 0.0) {
+        stats_.site_min_gap_m = std::min(stats_.site_min_gap_m, gap_m);
+        // Nothing either can do within the horizon closes a gap this wide.
+        if (gap_m - horizon_s * (my_bound_m_s + p.max_point_speed_m_s) > margin_m) break;
+      }
+      if (gap_m <= margin_m) {
+        meet_s = tau_s;
+        break;
+      }
+    }
+    pin.meet_in_s = meet_s;
+    site_meet_s_[r] = meet_s;
+    if (planning_now) continue;
+    // A higher-priority machine is planned around: its pose and its plan's remaining sweep. A
+    // lower-priority one is not.
+    if (m.state.priority < site_priority_) {
+      site_pose_copy(p, 0, p.q, peer_reach_m + peer_speed_m_s * (t0_s + skew_s));
+      if (uses_plan) {
+        const int w = std::clamp<int>(m.plan.num_waypoints, 2, site_plan_t::MAX_WAYPOINTS);
+        const double from_s = m.state.plan_time_s;
+        const double to_s = m.plan.waypoint_time_s[w - 1];
+        const int copies = site_->plan_copies - 1;
+        for (int c = 1; c <= copies; ++c) {
+          site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c) / copies, site_q2_);
+          site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c - 1) / copies, site_q_);
+          // Half the travel between two copies covers the sweep between them.
+          double between_m = 0.0;
+          for (int j = 0; j < nq; ++j) between_m += p.model->displacement_bound(j) * std::abs(site_q2_[j] - site_q_[j]);
+          site_pose_copy(p, c, site_q2_, 0.5 * between_m);
+        }
+      } else {
+        for (int j = 0; j < nq; ++j) site_q2_[j] = p.q[j] + m.state.stop_travel[static_cast<std::size_t>(j)];
+        site_pose_copy(p, 1, site_q2_, peer_speed_m_s * (t0_s + skew_s));
+        site_park(p, 2);
+      }
+    } else {
+      site_park(p, 0);
+    }
+  }
+  site_decision_ = decide_site(site_roster_, site_->machine_id,
+                               std::span<const SitePeerInput>(site_in_.data(), site_roster_.count), now_us_, rules);
+  SiteMotion motion = site_decision_.motion;
+  if (stale_stop) motion = SiteMotion::Stop;
+  if (motion == SiteMotion::Stop) {
+    ++stats_.site_stop_cycles;
+    if (site_motion_ != SiteMotion::Stop) ++stats_.site_stops;
+  } else if (motion == SiteMotion::SlowDown) {
+    ++stats_.site_slow_cycles;
+  }
+  if (site_stale_ && !site_was_stale_) ++stats_.site_stale_alerts;
+  site_was_stale_ = site_stale_;
+  site_motion_ = motion;
+  if (site_decision_.motion_for_id != 0 && !site_stale_) site_alert_id_ = site_decision_.motion_for_id;
+  site_speed_scale_ = motion == SiteMotion::Stop ? 0.0 : (motion == SiteMotion::SlowDown ? site_->slow_down_scale : 1.0);
+  // The lower-priority machine stopped for a higher one re-plans round it, once for each plan of
+  // that machine: a path already planned round its plan is kept, and the machine waits for it.
+  bool replan = false;
+  for (std::size_t i = 0; i < site_decision_.count; ++i) {
+    const SitePeerDecision& d = site_decision_.peers[i];
+    const SitePeerMessages& m = in.peers[i];
+    if (planning_now) site_planned_round_[i] = m.has_state ? m.state.plan_id : 0;
+    const bool planned_round = m.has_state && site_planned_round_[i] == m.state.plan_id;
+    replan = replan || (d.role == SiteRole::PlanAround && d.motion == SiteMotion::Stop && !planned_round);
+  }
+  site_replan_ = replan && following_ && supervisor_.state() == guidance::SupervisorState::Executing;
+  if (site_replan_) ++stats_.site_replans;
+}
+
+void Controller::site_fill_state(const guidance::SupervisorOutput& out) noexcept {
+  site_state_.supervisor_state = state_code(out.state);
+  site_state_.num_joints = static_cast<std::int8_t>(n_);
+  double rest_s = 0.0;
+  for (int j = 0; j < n_; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    const double v = velocity_[k];
+    const double a = model_->joints()[k].max_acceleration;
+    site_state_.joint_position[k] = q_wrapped_[j];
+    site_state_.joint_velocity[k] = v;
+    site_state_.stop_travel[k] = v * std::abs(v) / (2.0 * a);
+    rest_s = std::max(rest_s, std::abs(v) / a);
+  }
+  site_state_.time_to_rest_s = rest_s;
+  const bool executing = following_ && out.state == guidance::SupervisorState::Executing && site_plan_version_ > 0 &&
+                         site_plan_source_ == plan_id_;
+  site_state_.plan_id = executing ? site_plan_.plan_id : 0;
+  double t_s = 0.0;
+  if (executing && target_ >= 1) {
+    // Along the segment being followed by the share of its moving joint's way done.
+    const std::size_t seg = std::min(target_, path_size_) - 1;
+    const std::size_t i = seg >= site_plan_first_ ? seg - site_plan_first_ : 0;
+    const int w = site_plan_.num_waypoints;
+    if (static_cast<int>(i) + 1 < w) {
+      const double t_a = site_plan_.waypoint_time_s[i];
+      const double t_b = site_plan_.waypoint_time_s[i + 1];
+      double done = 1.0;
+      double largest = 0.0;
+      for (int j = 0; j < n_; ++j) {
+        const double span = std::abs(site_plan_.positions[i + 1][static_cast<std::size_t>(j)] - site_plan_.positions[i][static_cast<std::size_t>(j)]);
+        if (span > largest) {
+          largest = span;
+          done = std::clamp(1.0 - std::abs(target_unwrapped_[j] - q_unwrapped_[j]) / span, 0.0, 1.0);
+        }
+      }
+      t_s = t_a + done * (t_b - t_a);
+    } else {
+      t_s = site_plan_.waypoint_time_s[std::max(w - 1, 0)];
+    }
+  }
+  site_state_.plan_time_s = t_s;
+}
+
+void Controller::site_fill_plan() noexcept {
+  if (!following_ || path_size_ < 2) return;
+  const std::size_t window = static_cast<std::size_t>(site_plan_t::MAX_WAYPOINTS);
+  // The window starts at the active segment; a plan that fits is sent whole.
+  const std::size_t first = path_size_ <= window ? 0 : std::min(target_ >= 1 ? target_ - 1 : 0, path_size_ - 2);
+  if (site_plan_version_ > 0 && site_plan_source_ == plan_id_ && first == site_plan_first_) return;
+  site_plan_source_ = plan_id_;
+  site_plan_first_ = first;
+  site_plan_.plan_id = static_cast<std::int32_t>(plan_id_);
+  const std::size_t count = std::min(window, path_size_ - first);
+  site_plan_.num_waypoints = static_cast<std::int8_t>(count);
+  site_plan_.ends_at_goal = first + count == path_size_;
+  planning::JointVector w = origin_;
+  for (std::size_t i = 1; i <= first; ++i) w += model_->difference(waypoint(i - 1), waypoint(i));
+  double t_s = 0.0;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (i > 0) {
+      const planning::JointVector d = model_->difference(waypoint(first + i - 1), waypoint(first + i));
+      // One joint at a time, each at the follower's speed with its acceleration ramps.
+      double seg_s = 0.0;
+      for (int j = 0; j < n_; ++j) {
+        const guidance::JointLimits& l = follow_limits_[static_cast<std::size_t>(j)];
+        if (std::abs(d[j]) > kReachedTolerance) seg_s += std::abs(d[j]) / l.max_velocity + l.max_velocity / l.max_acceleration;
+      }
+      t_s += std::max(seg_s, 1e-3);
+      w += d;
+    }
+    site_plan_.waypoint_time_s[i] = t_s;
+    for (int j = 0; j < n_; ++j) site_plan_.positions[i][static_cast<std::size_t>(j)] = w[j];
+  }
+  for (std::size_t i = count; i < window; ++i) {
+    site_plan_.waypoint_time_s[i] = 0.0;
+    for (auto& x : site_plan_.positions[i]) x = 0.0;
+  }
+  ++site_plan_version_;
+  ++stats_.site_plans_published;
 }
 
 }  // namespace mgc::firmware

@@ -116,6 +116,9 @@ class PosedObject final : public CollisionObject {
  public:
   explicit PosedObject(const std::shared_ptr<fcl::CollisionGeometryd>& geometry) : CollisionObject(geometry) {}
 
+  //! The shape, for resizing in place (CollisionWorld::set_dynamic_part_size).
+  [[nodiscard]] fcl::CollisionGeometryd* geometry() noexcept { return cgeom.get(); }
+
   void compute_tight_aabb() noexcept {
     const fcl::AABBd& local = cgeom->aabb_local;
     const Eigen::Vector3d centre = t * local.center();
@@ -711,6 +714,55 @@ void CollisionWorld::set_dynamic_pose(int index, const Eigen::Isometry3d& world_
     part.object->compute_tight_aabb();
   }
   dynamic.bound();
+  ++impl_->dynamic_epoch;
+}
+
+void CollisionWorld::set_dynamic_part_size(int index, int part, const Eigen::Vector3d& size_m) noexcept {
+  if (index < 0 || static_cast<std::size_t>(index) >= impl_->dynamics.size() || !positive_finite(size_m)) return;
+  auto& dynamic = impl_->dynamics[static_cast<std::size_t>(index)];
+  if (part < 0 || static_cast<std::size_t>(part) >= dynamic.parts.size()) return;
+  fcl::CollisionGeometryd* geometry = dynamic.parts[static_cast<std::size_t>(part)].object->geometry();
+  switch (geometry->getNodeType()) {
+    case fcl::GEOM_BOX: {
+      auto* box = static_cast<fcl::Boxd*>(geometry);
+      if (box->side == size_m) return;
+      box->side = size_m;
+      break;
+    }
+    case fcl::GEOM_CAPSULE: {
+      auto* capsule = static_cast<fcl::Capsuled*>(geometry);
+      if (capsule->radius == 0.5 * size_m.x() && capsule->lz == size_m.z()) return;
+      capsule->radius = 0.5 * size_m.x();
+      capsule->lz = size_m.z();
+      break;
+    }
+    case fcl::GEOM_CYLINDER: {
+      auto* cylinder = static_cast<fcl::Cylinderd*>(geometry);
+      if (cylinder->radius == 0.5 * size_m.x() && cylinder->lz == size_m.z()) return;
+      cylinder->radius = 0.5 * size_m.x();
+      cylinder->lz = size_m.z();
+      break;
+    }
+    default:
+      return;
+  }
+  geometry->computeLocalAABB();
+  dynamic.parts[static_cast<std::size_t>(part)].object->compute_tight_aabb();
+  dynamic.bound();
+  dynamic.reach_m = 0.0;
+  for (const Impl::DynamicPart& p : dynamic.parts) {
+    const fcl::AABBd& local = p.object->collisionGeometry()->aabb_local;
+    for (int corner = 0; corner < 8; ++corner) {
+      const Eigen::Vector3d c((corner & 1) != 0 ? local.max_.x() : local.min_.x(), (corner & 2) != 0 ? local.max_.y() : local.min_.y(),
+                              (corner & 4) != 0 ? local.max_.z() : local.min_.z());
+      dynamic.reach_m = std::max(dynamic.reach_m, (p.obstacle_from_part * c).head<2>().norm());
+    }
+  }
+  // Twins share every answer; a resized part makes this one a shape of its own.
+  dynamic.twin = -1;
+  for (auto& other : impl_->dynamics) {
+    if (other.twin == index) other.twin = -1;
+  }
   ++impl_->dynamic_epoch;
 }
 

@@ -6,10 +6,13 @@
 #include <catch2/catch.hpp>
 
 #include <memory>
+#include <string>
 
 #include "../sim/sim_rig.hpp"
 #include "allocation_counter.hpp"
 #include "mgc/firmware/controller.hpp"
+#include "mgc/planning/io/site_loader.hpp"
+#include "mgc/sim/site_rig.hpp"
 
 using namespace mgc;
 using test::SimRig;
@@ -103,4 +106,23 @@ TEST_CASE("the controller's cycle does not allocate through a retreat and an esc
   REQUIRE(st.retreat_cycles > 0);
   REQUIRE(st.goals_reached == 1);
   CHECK(counted->allocations == 0);
+}
+
+TEST_CASE("a site member's cycle does not allocate: the rules, the meet scan, the peers posed, its messages", "[firmware][sim][alloc][site]") {
+  // The crossing lifts of the site rig's tests: the lower-priority machine stops for the higher
+  // one, re-plans round its plan and waits; both produce their site messages every cycle.
+  sim::SiteRigConfig config;
+  config.lift_start_s = {0.0, 0.0};
+  config.allocation_count = [] { return test::allocation_count(); };
+  sim::SiteRig rig(planning::io::load_site(std::string(MGC_SOURCE_DIR) + "/scenarios/sites/crossing-cranes.yaml"), config, "site-alloc");
+  rig.run_until(200.0, true);
+  for (const sim::SiteRigMember& m : rig.members()) {
+    const firmware::ControllerStats& st = m.controller->stats();
+    CAPTURE(m.machine_id, m.cycles, st.goals_reached, st.site_stop_cycles, st.replans, st.site_plans_published);
+    REQUIRE(st.goals_reached == 1);
+    CHECK(m.cycles > 5'000);
+    CHECK(m.step_allocations == 0);
+  }
+  REQUIRE(rig.member(1).controller->stats().site_stop_cycles > 0);
+  REQUIRE(rig.member(1).controller->stats().replans >= 1);
 }

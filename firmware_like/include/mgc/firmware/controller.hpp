@@ -12,6 +12,8 @@
 #include "mgc/firmware/guidance_snapshot.hpp"
 #include "mgc/firmware/obstacle_tracker.hpp"
 #include "mgc/firmware/rate_limiter.hpp"
+#include "mgc/firmware/site_member.hpp"
+#include "mgc/firmware/site_rules.hpp"
 #include "mgc/guidance/diagnostics.hpp"
 #include "mgc/guidance/online.hpp"
 #include "mgc/guidance/rated_capacity.hpp"
@@ -182,6 +184,16 @@ struct ControllerStats {
   //! Largest share of its threshold any of the monitor's motion checks reached (1 = a fault). [-]
   double plausibility_peak_ratio = 0.0;
   int pilot_cuts = 0;  //!< times the controller cut pilot pressure
+  // A site member's (docs/site.md, "The controller as a site member"); 0 without a site.
+  std::uint64_t site_stop_cycles = 0;      //!< cycles in which the site asked to stop
+  std::uint64_t site_slow_cycles = 0;      //!< cycles in which the site asked to slow down
+  int site_stops = 0;                      //!< times the site's stop was raised (each rise once)
+  int site_replans = 0;                    //!< safety stops the site asked for to re-plan round a higher-priority machine
+  int site_stale_alerts = 0;               //!< times a machine went stale or was never heard (each rise once)
+  int site_plans_published = 0;            //!< site_plan_t contents produced
+  //! Least gap between my stopping envelope and another machine's, stop margin not taken off, as
+  //! the scan measured it at its first step (now). [m]
+  double site_min_gap_m = 1e9;
 };
 
 class Controller {
@@ -189,11 +201,31 @@ class Controller {
   //! Builds the model, the planning and safety worlds, the trackers and the re-planner for the
   //! scenario. Start-up only: allocates, throws std::invalid_argument naming what is wrong.
   Controller(const planning::Scenario& scenario, const ControllerConfig& config);
+  //! A member of a coordinated site (site null: as the two-argument form, bit for bit): the other
+  //! machines of site->site enter its worlds (site_member_scenario()) and the site rules its cycle.
+  Controller(const planning::Scenario& scenario, const ControllerConfig& config, const SiteMemberConfig* site);
 
   //! One cycle. dt_us: true time since the previous cycle (CycleTiming::dt_us; the period on the
   //! first). RT-safe: no allocation, no throw, no clock.
   ControllerOutput step(const hal::SensorSnapshot& snapshot, std::int64_t dt_us, const ControllerCommands& commands,
                         bool watchdog_tripped) noexcept;
+  //! One cycle of a site member: site holds the other machines' latest verified messages (on the
+  //! snapshot's clock). Without a site given at construction it is step() above. RT-safe.
+  ControllerOutput step(const hal::SensorSnapshot& snapshot, std::int64_t dt_us, const ControllerCommands& commands,
+                        bool watchdog_tripped, const SiteInputs& site) noexcept;
+
+  [[nodiscard]] bool site_member() const noexcept { return site_ != nullptr; }
+  //! This cycle's site_state_t content (sequence, sender time and MAC left to the publisher).
+  [[nodiscard]] const site_state_t& site_state() const noexcept { return site_state_; }
+  //! The plan's site_plan_t content (the same left out), and a count that moves each time it changes:
+  //! a new plan, or its window moved on.
+  [[nodiscard]] const site_plan_t& site_plan() const noexcept { return site_plan_; }
+  [[nodiscard]] std::uint64_t site_plan_version() const noexcept { return site_plan_version_; }
+  //! The site rules' decision of the last cycle (count 0 without a site).
+  [[nodiscard]] const SiteDecision& site_decision() const noexcept { return site_decision_; }
+  //! Per roster entry, the time until my stopping envelope and that machine's would meet, as last
+  //! scanned (+inf: not within the scan). [s]
+  [[nodiscard]] double site_meet_in_s(std::size_t roster_index) const noexcept { return site_meet_s_[roster_index]; }
 
   //! The guidance snapshot of the last step() (timing left for the harness to fill).
   [[nodiscard]] const GuidanceSnapshot& snapshot() const noexcept { return snap_; }
@@ -243,6 +275,19 @@ class Controller {
   //! The follower's velocity command into v_target_.
   void follow(double dt_s, double speed_scale) noexcept;
   void fill_snapshot(const hal::SensorSnapshot& s, const guidance::SupervisorOutput& out) noexcept;
+  ControllerOutput step_impl(const hal::SensorSnapshot& s, std::int64_t dt_us, const ControllerCommands& commands,
+                             bool watchdog_tripped, const SiteInputs* site) noexcept;
+  //! The site rules for this cycle: decision, speed factor, safety stop, peers posed.
+  void site_cycle(const SiteInputs& in) noexcept;
+  //! Gap from my stopping envelope at my_q (grown by my_reach_m) to peer p posed at q in its meet world,
+  //! each body grown by grow_m. [m]
+  [[nodiscard]] double site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
+                                  const planning::JointVector& my_q) noexcept;
+  //! Poses peer p's moving bodies at q as copy c in the planning and escape worlds, grown by grow_m.
+  void site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept;
+  void site_park(SitePeerModel& p, int from_copy) noexcept;
+  void site_fill_state(const guidance::SupervisorOutput& out) noexcept;
+  void site_fill_plan() noexcept;
   void raise(std::size_t kind, bool active, std::int8_t severity, std::int8_t source, std::int8_t clear,
              std::int8_t unit, double value, double limit, std::int32_t index) noexcept;
 
@@ -353,7 +398,7 @@ class Controller {
   std::uint32_t plan_id_ = 0;
 
   // Alerts: one slot per kind, an id from raise to clear.
-  static constexpr std::size_t kAlertKinds = 11;
+  static constexpr std::size_t kAlertKinds = 12;
   static_assert(kAlertKinds <= static_cast<std::size_t>(kSnapshotMaxAlerts), "every alert kind fits a snapshot");
   std::array<SnapshotAlert, kAlertKinds> alerts_{};
   std::array<bool, kAlertKinds> alert_active_{};
@@ -365,6 +410,31 @@ class Controller {
   std::int64_t now_us_ = 0;
   GuidanceSnapshot snap_{};
   ControllerStats stats_{};
+
+  // Site member (null site_: none).
+  std::unique_ptr<SiteMemberConfig> site_;
+  SiteRoster site_roster_{};
+  std::vector<SitePeerModel> site_peers_;
+  std::array<SitePeerInput, kMaxSiteMachines> site_in_{};
+  std::array<double, kMaxSiteMachines> site_meet_s_{};
+  //! Per roster entry, the plan id that machine executed when my path was last planned. [-]
+  std::array<std::int32_t, kMaxSiteMachines> site_planned_round_{};
+  SiteDecision site_decision_{};
+  SiteMotion site_motion_ = SiteMotion::Proceed;
+  bool site_stale_ = false;       //!< a machine is stale or never heard
+  bool site_was_stale_ = false;   //!< the same, the cycle before
+  bool site_replan_ = false;      //!< stop for a higher-priority machine: the supervisor re-plans
+  int site_alert_id_ = 0;         //!< machine id the site alert names
+  double site_speed_scale_ = 1.0;
+  std::int32_t site_priority_ = 0;
+  std::uint32_t site_plan_source_ = 0;  //!< plan_id_ of the content in site_plan_
+  std::size_t site_plan_first_ = 0;     //!< first path waypoint in the content
+  std::uint64_t site_plan_version_ = 0;
+  site_state_t site_state_{};
+  site_plan_t site_plan_{};
+  planning::JointVector site_q_;   //!< scratch [rad | m]
+  planning::JointVector site_q2_;  //!< scratch [rad | m]
+  planning::JointVector site_v_;   //!< my velocity as the scan carries it forward [rad/s | m/s]
 };
 
 }  // namespace mgc::firmware

@@ -84,6 +84,11 @@ class CollisionWorld {
   //! nothing: remembered dynamic results and clearance balls stay.
   void set_dynamic_pose(int index, const Eigen::Isometry3d& world_from_obstacle) noexcept;
   [[nodiscard]] const Eigen::Isometry3d& dynamic_pose(int index) const noexcept;
+  //! Resizes part `part` of dynamic obstacle `index` in place, size_m as its ShapePart takes it (a
+  //! box's extents; a cylinder's or capsule's (2 r, 2 r, length)): another machine's telescoping
+  //! boom or paying-out cable posed as an obstacle. A mesh part, a size not positive and finite or
+  //! an index out of range change nothing. The obstacle is no longer anyone's twin. RT-safe.
+  void set_dynamic_part_size(int index, int part, const Eigen::Vector3d& size_m) noexcept;
   //! The farthest any point of dynamic obstacle `index` lies from the vertical axis through its
   //! own origin, about which its yaw turns it: with DynamicObstacleSpec::max_travel_m, how far its
   //! points can move. From the parts' bounding boxes, so never less than the true reach. [m]

@@ -1,0 +1,85 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <mgc/site_plan_t.hpp>
+#include <mgc/site_state_t.hpp>
+
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "mgc/firmware/site_rules.hpp"
+#include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/machine_model.hpp"
+#include "mgc/planning/scenario.hpp"
+#include "mgc/planning/site.hpp"
+
+//! The controller as a member of a coordinated site (docs/site.md, "The controller as a site
+//! member"): what it is given at start-up, what the loop hands it every cycle (the verified site
+//! messages of the other machines, fixed size), and how the other machines enter its worlds.
+namespace mgc::firmware {
+
+//! The latest verified messages of one other machine, as the I/O side hands them to the loop: the
+//! decoding and the checks (SiteVerifier) happened before, off the loop.
+struct SitePeerMessages {
+  bool has_state = false;
+  site_state_t state{};
+  std::int64_t state_received_us = 0;  //!< on the loop's clock (the snapshot's t_us) [µs]
+  bool has_plan = false;
+  site_plan_t plan{};
+};
+
+//! Every other machine's latest verified messages, in roster order (my own entry is ignored).
+struct SiteInputs {
+  std::array<SitePeerMessages, kMaxSiteMachines> peers{};
+};
+
+//! Start-up description of the site for a member's controller.
+struct SiteMemberConfig {
+  planning::Site site;
+  std::int32_t machine_id = 0;  //!< mine, in the site file
+  SiteRulesConfig rules{};
+  //! Poses of a higher-priority machine's remaining plan the planning worlds hold (its present
+  //! pose one of them). [-]
+  int plan_copies = 12;
+  //! Step of the scan that finds when two stopping envelopes would meet (meet_in_s). [s]
+  double scan_step_s = 0.25;
+  //! Speed factor while the mutual-stop rule asks to slow down. [-]
+  double slow_down_scale = 0.5;
+};
+
+//! The scenario a site member's controller works in: the lift's scenario with every other
+//! machine's fixed bodies (carrier, mast, undercarriage) as static obstacles at their bases, and
+//! its moving bodies as dynamic obstacles, plan_copies of each, parked far below the site until
+//! the rules pose them. Start-up only (allocates; throws std::invalid_argument when my id is not
+//! in the site or a model cannot be built).
+[[nodiscard]] planning::Scenario site_member_scenario(const planning::Scenario& lift, const SiteMemberConfig& config);
+
+//! One other machine's model and the worlds it is measured in. Start-up builds it; the loop poses it.
+struct SitePeerModel {
+  int roster_index = -1;
+  std::int32_t machine_id = 0;
+  double max_point_speed_m_s = 0.0;  //!< [m/s]
+  std::unique_ptr<planning::MachineModel> model;
+  std::vector<int> moving_bodies;  //!< its bodies that move with its joints
+  //! My model against its moving bodies (dynamic obstacle k: body moving_bodies[k]), undilated:
+  //! where the stopping envelopes are measured.
+  std::unique_ptr<planning::CollisionWorld> meet_world;
+  int world_first = -1;  //!< first of its dynamic obstacles in the planning worlds: copy c, body k at world_first + c * moving + k
+  planning::Kinematics kinematics{};
+  planning::JointVector q;  //!< scratch [rad | m]
+};
+
+//! Builds the other machines' models and meet worlds for my_model. Start-up only.
+[[nodiscard]] std::vector<SitePeerModel> make_site_peers(const SiteMemberConfig& config, const planning::MachineModel& my_model,
+                                                         int first_dynamic);
+
+//! The parked pose of copy c of a peer's body k: far below the site, apart from every other. RT-safe.
+[[nodiscard]] Eigen::Isometry3d site_parked_pose(int peer, int copy, int body) noexcept;
+
+//! Position of a plan at plan time t_s, linear between its timed waypoints, held at its ends. RT-safe.
+void site_plan_at(const site_plan_t& plan, double t_s, planning::JointVector& q) noexcept;
+
+}  // namespace mgc::firmware
