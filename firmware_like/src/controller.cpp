@@ -27,6 +27,12 @@ constexpr double kReachedTolerance = 1e-6;
 //! A joint cannot move faster than this multiple of its rated speed: an estimate beyond it is a
 //! timing artefact, not motion. [-]
 constexpr double kPlausibleSpeedFactor = 1.5;
+//! A site member's own motion leads apart from another machine when it widens their gap by more
+//! than this within a scan step. [m]
+constexpr double kSiteApartM = 1e-3;
+//! Another machine whose body points move slower than this, and whose joints stop within as many
+//! seconds, is at rest. [m/s, s]
+constexpr double kSiteRestSpeedMS = 0.05;
 //! An alert stays raised this long after its condition was last seen. [µs]
 constexpr std::int64_t kAlertHoldUs = 1'000'000;
 
@@ -1148,11 +1154,24 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
   double my_speed_m_s = 0.0;
   double my_reach_m = 0.0;
   double my_bound_m_s = 0.0;
+  // The joint the follower moves next: before it first moved (held from the start), the farthest
+  // from its target, as follow() picks it.
+  int next_joint = moving_joint_;
+  if (following_ && target_ < path_size_ && next_joint < 0) {
+    double largest = kReachedTolerance;
+    for (int j = 0; j < n_; ++j) {
+      const double remaining = std::abs(target_unwrapped_[j] - q_unwrapped_[j]);
+      if (remaining > largest) {
+        largest = remaining;
+        next_joint = j;
+      }
+    }
+  }
   for (int j = 0; j < n_; ++j) {
     const auto k = static_cast<std::size_t>(j);
     const planning::JointSpec& spec = model_->joints()[k];
     double v = std::abs(limiter_.velocity()[k]) > std::abs(velocity_[k]) ? limiter_.velocity()[k] : velocity_[k];
-    if (following_ && target_ < path_size_ && j == moving_joint_) {
+    if (following_ && target_ < path_size_ && j == next_joint) {
       const double toward = target_unwrapped_[j] - q_unwrapped_[j];
       const double intended = std::copysign(follow_limits_[k].max_velocity, toward);
       if (std::abs(toward) > kReachedTolerance && std::abs(intended) > std::abs(v)) v = intended;
@@ -1211,9 +1230,24 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
     }
     const double t0_s = static_cast<double>(age_us) * 1e-6;
     const bool uses_plan = m.state.plan_id != 0 && m.has_plan && m.plan.plan_id == m.state.plan_id;
-    const double grow_m = peer_reach_m + peer_speed_m_s * skew_s + 0.5 * step_s * (my_bound_m_s + p.max_point_speed_m_s);
+    const double grow_m = peer_reach_m + peer_speed_m_s * skew_s;
+    // A machine at rest (one that waits, for me perhaps) does not take up its plan at full speed
+    // at once: it stays where it is, grown by how far its joints' accelerations carry it.
+    const bool at_rest = peer_speed_m_s < kSiteRestSpeedMS && m.state.time_to_rest_s < kSiteRestSpeedMS;
+    const auto start_reach_m = [&](double tau_s) noexcept {
+      double reach_m = 0.0;
+      for (int j = 0; j < nq; ++j) {
+        const planning::JointSpec& spec = p.model->joints()[static_cast<std::size_t>(j)];
+        reach_m += p.model->displacement_bound(j) * std::min(0.5 * spec.max_acceleration * tau_s * tau_s, spec.max_velocity * tau_s);
+      }
+      return reach_m;
+    };
     // Carried forward from the state, which is t0_s old: along its plan, or at its velocity.
     const auto predict = [&](double tau_s, planning::JointVector& q) noexcept {
+      if (at_rest) {
+        for (int j = 0; j < nq; ++j) q[j] = m.state.joint_position[static_cast<std::size_t>(j)];
+        return;
+      }
       if (uses_plan) {
         site_plan_at(m.plan, m.state.plan_time_s + t0_s + tau_s, q);
         return;
@@ -1222,15 +1256,29 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
     };
     double meet_s = std::numeric_limits<double>::infinity();
     for (double tau_s = 0.0; tau_s <= horizon_s + 1e-9; tau_s += step_s) {
+      // Between two samples either machine moves at most half a step's travel from the nearer
+      // one: mine at its carried velocity, the other's along its prediction.
+      predict(std::max(tau_s - step_s, 0.0), site_q_);
       predict(tau_s, site_q2_);
+      double between_m = my_speed_m_s * step_s;
+      for (int j = 0; j < nq; ++j) between_m += p.model->displacement_bound(j) * std::abs(site_q2_[j] - site_q_[j]);
+      if (tau_s == 0.0) between_m += peer_speed_m_s * step_s;
       for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + site_v_[j] * tau_s;
-      const double gap_m = site_gap_m(p, site_q2_, grow_m, site_q_) - my_reach_m;
+      const double start_m = at_rest ? start_reach_m(t0_s + tau_s + skew_s) : 0.0;
+      const double gap_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_) - my_reach_m;
       if (tau_s == 0.0) {
         stats_.site_min_gap_m = std::min(stats_.site_min_gap_m, gap_m);
         // Nothing either can do within the horizon closes a gap this wide.
         if (gap_m - horizon_s * (my_bound_m_s + p.max_point_speed_m_s) > margin_m) break;
       }
       if (gap_m <= margin_m) {
+        // Only my motion toward it is stopped: where my way leads apart (as against standing
+        // still, a step on), stopping would keep me in its way.
+        const double probe_s = std::max(tau_s, step_s);
+        for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + site_v_[j] * probe_s;
+        const double moving_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_);
+        const double still_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, q_wrapped_);
+        if (moving_m > still_m + kSiteApartM) continue;
         meet_s = tau_s;
         break;
       }
@@ -1247,13 +1295,12 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
         const double from_s = m.state.plan_time_s;
         const double to_s = m.plan.waypoint_time_s[w - 1];
         const int copies = site_->plan_copies - 1;
+        // At their own size: grown to cover the sweep between them they would lie on my carrier,
+        // which that machine planned round, and leave me no start. What passes between two copies
+        // is the meet scan's to stop.
         for (int c = 1; c <= copies; ++c) {
           site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c) / copies, site_q2_);
-          site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c - 1) / copies, site_q_);
-          // Half the travel between two copies covers the sweep between them.
-          double between_m = 0.0;
-          for (int j = 0; j < nq; ++j) between_m += p.model->displacement_bound(j) * std::abs(site_q2_[j] - site_q_[j]);
-          site_pose_copy(p, c, site_q2_, 0.5 * between_m);
+          site_pose_copy(p, c, site_q2_, 0.0);
         }
       } else {
         for (int j = 0; j < nq; ++j) site_q2_[j] = p.q[j] + m.state.stop_travel[static_cast<std::size_t>(j)];
@@ -1279,15 +1326,27 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
   site_motion_ = motion;
   if (site_decision_.motion_for_id != 0 && !site_stale_) site_alert_id_ = site_decision_.motion_for_id;
   site_speed_scale_ = motion == SiteMotion::Stop ? 0.0 : (motion == SiteMotion::SlowDown ? site_->slow_down_scale : 1.0);
-  // The lower-priority machine stopped for a higher one re-plans round it, once for each plan of
-  // that machine: a path already planned round its plan is kept, and the machine waits for it.
+  // The lower-priority machine re-plans round each new plan of a higher one, before they would
+  // meet (a path already planned round that plan is kept, and the machine waits where the rule
+  // stops it), and when stopped for a higher one that has no plan.
+  // Kept stopped by a higher-priority machine for wait_replan_us on such a path, it re-plans again,
+  // round where that machine now stands and what is left of its plan: it may be waiting for me.
   bool replan = false;
+  bool waiting = false;
   for (std::size_t i = 0; i < site_decision_.count; ++i) {
     const SitePeerDecision& d = site_decision_.peers[i];
     const SitePeerMessages& m = in.peers[i];
     if (planning_now) site_planned_round_[i] = m.has_state ? m.state.plan_id : 0;
     const bool planned_round = m.has_state && site_planned_round_[i] == m.state.plan_id;
-    replan = replan || (d.role == SiteRole::PlanAround && d.motion == SiteMotion::Stop && !planned_round);
+    const bool stop_for = d.role == SiteRole::PlanAround && d.motion == SiteMotion::Stop;
+    const bool new_plan = d.role == SiteRole::PlanAround && d.prediction == SitePrediction::Plan && !planned_round;
+    waiting = waiting || stop_for;
+    replan = replan || (stop_for && !planned_round) || new_plan;
+  }
+  if (!waiting || planning_now) site_wait_since_us_ = now_us_;
+  if (waiting && now_us_ - site_wait_since_us_ >= site_->wait_replan_us) {
+    replan = true;
+    site_wait_since_us_ = now_us_;
   }
   site_replan_ = replan && following_ && supervisor_.state() == guidance::SupervisorState::Executing;
   if (site_replan_) ++stats_.site_replans;

@@ -423,6 +423,7 @@ class Controller {
   SiteMotion site_motion_ = SiteMotion::Proceed;
   bool site_stale_ = false;       //!< a machine is stale or never heard
   bool site_was_stale_ = false;   //!< the same, the cycle before
+  std::int64_t site_wait_since_us_ = 0;  //!< since when a higher-priority machine keeps me stopped [µs]
   bool site_replan_ = false;      //!< stop for a higher-priority machine: the supervisor re-plans
   int site_alert_id_ = 0;         //!< machine id the site alert names
   double site_speed_scale_ = 1.0;

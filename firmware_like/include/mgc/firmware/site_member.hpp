@@ -43,11 +43,15 @@ struct SiteMemberConfig {
   SiteRulesConfig rules{};
   //! Poses of a higher-priority machine's remaining plan the planning worlds hold (its present
   //! pose one of them). [-]
-  int plan_copies = 12;
+  int plan_copies = 24;
   //! Step of the scan that finds when two stopping envelopes would meet (meet_in_s). [s]
   double scan_step_s = 0.25;
   //! Speed factor while the mutual-stop rule asks to slow down. [-]
   double slow_down_scale = 0.5;
+  //! A lower-priority machine that a higher one keeps stopped this long, on a path already planned
+  //! round that machine's plan, re-plans again from where it stands: the higher one may be waiting
+  //! for it. [µs]
+  std::int64_t wait_replan_us = 2'000'000;
 };
 
 //! The scenario a site member's controller works in: the lift's scenario with every other
