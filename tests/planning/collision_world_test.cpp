@@ -409,3 +409,43 @@ TEST_CASE("copies of one obstacle at one pose report the first, and a copy elsew
   REQUIRE(world.hits_dynamic(q, &contact));
   CHECK(contact.other == third);
 }
+
+TEST_CASE("a dynamic obstacle resized in place measures as one built at that size, and is no longer its twin's", "[unit]") {
+  auto crane = make_crane();
+  const auto box = [](double side_m) {
+    DynamicObstacle d;
+    d.name = "box";
+    ShapePart part;
+    part.kind = ShapeKind::Box;
+    part.size_m = Eigen::Vector3d(side_m, side_m, side_m);
+    d.parts.push_back(part);
+    return d;
+  };
+  // Two copies of the same box (twins), one to be resized; and the reference built large.
+  CollisionWorld world(*crane, 0.15);
+  const int small = world.add_dynamic(box(1.0));
+  const int twin = world.add_dynamic(box(1.0));
+  world.finalize();
+  CollisionWorld reference(*crane, 0.15);
+  const int reference_small = reference.add_dynamic(box(1.0));
+  const int reference_twin = reference.add_dynamic(box(5.0));
+  reference.finalize();
+  const Eigen::Isometry3d at(Eigen::Translation3d(14, 0, 1));
+  world.set_dynamic_pose(small, at);
+  world.set_dynamic_pose(twin, at);
+  reference.set_dynamic_pose(reference_small, at);
+  reference.set_dynamic_pose(reference_twin, at);
+  const double elevation = std::acos(15.0 / 20.0) / kDeg;
+  const JointVector q = q4(0, elevation, 20, 8);
+  const double before_m = world.clearance(q, CollisionWorld::Bodies::All, CollisionWorld::Obstacles::Dynamic).distance_m;
+  world.set_dynamic_part_size(twin, 0, Eigen::Vector3d(5.0, 5.0, 5.0));
+  const Clearance after = world.clearance(q, CollisionWorld::Bodies::All, CollisionWorld::Obstacles::Dynamic);
+  const Clearance expected = reference.clearance(q, CollisionWorld::Bodies::All, CollisionWorld::Obstacles::Dynamic);
+  CHECK(after.distance_m == Approx(expected.distance_m).margin(1e-9));
+  CHECK(after.distance_m < before_m - 1.0);
+  CHECK(world.dynamic_reach_m(twin) == Approx(reference.dynamic_reach_m(reference_twin)));
+  // A size that is not positive and finite changes nothing.
+  world.set_dynamic_part_size(twin, 0, Eigen::Vector3d(0.0, 5.0, 5.0));
+  world.set_dynamic_part_size(twin, 3, Eigen::Vector3d(1.0, 1.0, 1.0));
+  CHECK(world.clearance(q, CollisionWorld::Bodies::All, CollisionWorld::Obstacles::Dynamic).distance_m == Approx(after.distance_m));
+}
