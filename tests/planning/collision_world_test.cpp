@@ -436,16 +436,24 @@ TEST_CASE("a dynamic obstacle resized in place measures as one built at that siz
   reference.set_dynamic_pose(reference_small, at);
   reference.set_dynamic_pose(reference_twin, at);
   const double elevation = std::acos(15.0 / 20.0) / kDeg;
-  const JointVector q = q4(0, elevation, 20, 8);
+  // The load's bottom 2.23 m up (as above): clear of the 1 m box's top, inside the 5 m box.
+  const JointVector q = q4(0, elevation, 20, 12);
+  REQUIRE(world.is_free(q));
+  REQUIRE_FALSE(reference.is_free(q));
   const double before_m = world.clearance(q, CollisionWorld::Bodies::All, CollisionWorld::Obstacles::Dynamic).distance_m;
   world.set_dynamic_part_size(twin, 0, Eigen::Vector3d(5.0, 5.0, 5.0));
   const Clearance after = world.clearance(q, CollisionWorld::Bodies::All, CollisionWorld::Obstacles::Dynamic);
   const Clearance expected = reference.clearance(q, CollisionWorld::Bodies::All, CollisionWorld::Obstacles::Dynamic);
   CHECK(after.distance_m == Approx(expected.distance_m).margin(1e-9));
-  CHECK(after.distance_m < before_m - 1.0);
+  CHECK(after.distance_m < before_m);
+  // Where it stands on the other copy's very pose, it answers for itself.
+  Contact contact;
+  CHECK_FALSE(world.is_free(q, &contact));
+  CHECK(contact.other == twin);
   CHECK(world.dynamic_reach_m(twin) == Approx(reference.dynamic_reach_m(reference_twin)));
   // A size that is not positive and finite changes nothing.
   world.set_dynamic_part_size(twin, 0, Eigen::Vector3d(0.0, 5.0, 5.0));
   world.set_dynamic_part_size(twin, 3, Eigen::Vector3d(1.0, 1.0, 1.0));
   CHECK(world.clearance(q, CollisionWorld::Bodies::All, CollisionWorld::Obstacles::Dynamic).distance_m == Approx(after.distance_m));
+  CHECK_FALSE(world.is_free(q));
 }
