@@ -7,6 +7,7 @@
 #include <numbers>
 #include <vector>
 
+#include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/path_metrics.hpp"
 #include "mgc/planning/planners/axis_connect.hpp"
 #include "mgc/planning/planners/replanner.hpp"
@@ -20,6 +21,9 @@ using mgc::test::Fixture;
 using mgc::test::run;
 
 namespace {
+
+constexpr int kSwing = 0;
+constexpr double kDeg = std::numbers::pi / 180.0;
 
 const char* const kSites[] = {"thesis-steel-frame.yaml", "thesis-steel-frame-tower.yaml", "thesis-steel-frame-road.yaml",
                               "excavator-pipelines.yaml", "excavator-truck.yaml"};
@@ -76,18 +80,69 @@ TEST_CASE("axis-connect: the same seed gives the same path, whatever the slices"
     CHECK(whole.path() == sliced.path());
     CHECK(whole.stats().iterations == sliced.stats().iterations);
   }
-  // Where the direct staircase is blocked the trees are random, and so are their paths.
+  // Where neither direct staircase is taken the trees are random: the thesis lift from 20 deg
+  // further round, where the long way is too slow to take without a search.
   Fixture f("thesis-steel-frame.yaml", 0);
+  f.problem.start[kSwing] -= 20.0 * kDeg;
+  std::vector<JointVector> first_nodes;
+  std::vector<int> parents;
   AxisConnectPlanner first;
   REQUIRE(run(first, f.problem) == PlannerStatus::Solved);
+  REQUIRE(first.stats().iterations > 1);
+  first.tree(first_nodes, parents);
   int differ = 0;
   for (std::uint64_t seed = 1; seed < 6; ++seed) {
     f.problem.seed = seed;
     AxisConnectPlanner other;
     REQUIRE(run(other, f.problem) == PlannerStatus::Solved);
-    differ += other.path() != first.path() ? 1 : 0;
+    std::vector<JointVector> nodes;
+    other.tree(nodes, parents);
+    differ += nodes != first_nodes ? 1 : 0;
   }
   CHECK(differ >= 1);
+}
+
+TEST_CASE("axis-connect turns the long way round at once when it is at most 1.3 times the short way's time", "[planner]") {
+  // The thesis lift: 160 deg the short way through the frame, 200 deg the long way round the
+  // west side at the same boom angle, 1.25 times as long.
+  Fixture f("thesis-steel-frame.yaml", 0);
+  const MachineModel& model = *f.loaded.model;
+  AxisConnectPlanner planner;
+  REQUIRE(run(planner, f.problem) == PlannerStatus::Solved);
+  CHECK(planner.stats().iterations == 1);
+  const std::vector<JointVector>& path = planner.path();
+  dense_recheck("thesis-steel-frame.yaml", path);
+  check_one_joint_edges(model, path);
+  double swing_rad = 0.0;
+  for (std::size_t e = 0; e + 1 < path.size(); ++e) swing_rad += model.difference(path[e], path[e + 1])[kSwing];
+  CHECK(std::abs(swing_rad) == Approx(200.0 * kDeg).margin(1e-9));
+  const double short_way_s = compute_motion_metrics(model, {f.problem.start, f.problem.goal}).exec_time_sequential_s;
+  CHECK(compute_motion_metrics(model, path).exec_time_sequential_s <= AxisConnectPlanner::kLongWayFactor * short_way_s);
+}
+
+TEST_CASE("axis-connect keeps a slower long way round and returns it when the search does worse or stops at its cap", "[planner]") {
+  // From 20 deg further round the long way takes 220 / 140 = 1.57 times the short way's time:
+  // not taken at once, but the searches' paths of the first seeds over the frame are slower.
+  Fixture f("thesis-steel-frame.yaml", 0);
+  const MachineModel& model = *f.loaded.model;
+  f.problem.start[kSwing] -= 20.0 * kDeg;
+  const double long_way_s = (220.0 * kDeg) / model.joints()[kSwing].max_velocity;
+  for (std::uint64_t seed = 0; seed < 6; ++seed) {
+    CAPTURE(seed);
+    f.problem.seed = seed;
+    AxisConnectPlanner planner;
+    REQUIRE(run(planner, f.problem) == PlannerStatus::Solved);
+    CHECK(planner.stats().iterations > 1);
+    CHECK(compute_motion_metrics(model, planner.path()).exec_time_sequential_s <= long_way_s + 1e-9);
+  }
+  PlanningProblem capped = f.problem;
+  capped.max_iterations = 1;
+  AxisConnectPlanner planner;
+  REQUIRE(run(planner, capped) == PlannerStatus::Solved);
+  CHECK(compute_motion_metrics(model, planner.path()).exec_time_sequential_s == Approx(long_way_s).epsilon(1e-9));
+  CHECK(planner.path().front() == capped.start);
+  CHECK(planner.path().back() == capped.goal);
+  dense_recheck("thesis-steel-frame.yaml", planner.path(), false);
 }
 
 TEST_CASE("axis-connect's shortening never lengthens one-joint-at-a-time execution", "[planner]") {
@@ -117,8 +172,17 @@ TEST_CASE("axis-connect refuses an invalid start or goal and stops at its cap", 
   p = f.problem;
   p.goal[1] = 2.0;
   CHECK(planner.reset(p) == PlannerStatus::InvalidGoal);
-  // One iteration is the direct staircase, which the frame blocks.
-  p = f.problem;
+  // One iteration is the direct staircase both ways round: the frame blocks the short way, and a
+  // wall west of the crane, from the ground to 100 m, the long way.
+  Scenario walled = io::load_scenario(mgc::test::source_path("scenarios/thesis-steel-frame.yaml"));
+  StaticObstacle wall;
+  wall.name = "west-wall";
+  wall.shape.size_m = Eigen::Vector3d(62.0, 0.5, 100.0);
+  wall.shape.pose.translation() = Eigen::Vector3d(-39.0, 0.0, 50.0);
+  walled.obstacles.push_back(wall);
+  const auto model = build_model(walled);
+  const auto world = build_world(walled, *model);
+  p = planning_problem(walled, *model, *world);
   p.max_iterations = 1;
   CHECK(run(planner, p) == PlannerStatus::IterationLimit);
 }

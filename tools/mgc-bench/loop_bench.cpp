@@ -88,9 +88,8 @@ struct Cycle {
 };
 
 //! The controller as the suite runs it: the thesis's DRRT, whose path takes the west route that
-//! crane 2's script swings across (as the controller's intrusion tests do). The default
-//! re-planner's path lifts the boom over the frame, where crane 2 cannot reach, and an intrusion
-//! suite on it would measure no intrusion.
+//! crane 2's script swings across, as the controller's intrusion tests do, so that the figures
+//! stay comparable with the thesis's re-planning.
 firmware::ControllerConfig west_route_config() {
   firmware::ControllerConfig c;
   c.replanner = "drrt";

@@ -29,6 +29,7 @@ PlannerStatus AxisConnectPlanner::reset(const PlanningProblem& problem) {
   start_tree_grows_first_ = true;
   checks_at_reset_ = problem.world->collision_checks();
   path_.clear();
+  long_way_.clear();
   const int dof = problem.model->dof();
   // An iteration adds at most two corners per joint to a tree (a move and its second pass); the
   // direct staircase of the first one, one per joint.
@@ -39,6 +40,8 @@ PlannerStatus AxisConnectPlanner::reset(const PlanningProblem& problem) {
   start_tree_.reset(capacity);
   goal_tree_.reset(capacity);
   path_.reserve(2 * capacity);
+  // The long way round: its halfway node and, at most, a stair per joint before and after it.
+  long_way_.reserve(static_cast<std::size_t>(2 * dof + 2));
   for (JointVector& s : stairs_) s = JointVector::Zero(dof);
   // The shortener holds the joined path and the stairs it puts in; a path longer than this (it
   // has never come near) is kept as it is.
@@ -179,6 +182,43 @@ AxisConnectPlanner::Growth AxisConnectPlanner::connect_exact(NodeTree& tree, int
   return Growth::Reached;
 }
 
+double AxisConnectPlanner::staircase_time_s(const JointVector& from, const JointVector& to) const noexcept {
+  const MachineModel& model = *problem_->model;
+  const JointVector d = model.difference(from, to);
+  double t_s = 0.0;
+  for (int j = 0; j < model.dof(); ++j) t_s += std::abs(d[j]) / model.joints()[static_cast<std::size_t>(j)].max_velocity;
+  return t_s;
+}
+
+AxisConnectPlanner::Growth AxisConnectPlanner::connect_long_way(int& last, bool& at_once) noexcept {
+  const MachineModel& model = *problem_->model;
+  const JointVector& start = problem_->start;
+  const JointVector& goal = problem_->goal;
+  const double short_way_s = staircase_time_s(start, goal);
+  const JointVector d = model.difference(start, goal);
+  for (int c = 0; c < model.dof(); ++c) {
+    const auto& joint = model.joints()[static_cast<std::size_t>(c)];
+    if (!joint.continuous || d[c] == 0.0) continue;
+    const double long_arc = d[c] > 0.0 ? d[c] - 2.0 * std::numbers::pi : d[c] + 2.0 * std::numbers::pi;
+    const double long_way_s = short_way_s + (std::abs(long_arc) - std::abs(d[c])) / joint.max_velocity;
+    at_once = long_way_s <= kLongWayFactor * short_way_s;
+    const double halfway = wrap_angle(start[c] + 0.5 * long_arc);
+    // Half the long arc first and then the staircase to the goal, or the staircase to the goal's
+    // other joints with half the arc and then the second half.
+    for (int side = 0; side < 2; ++side) {
+      JointVector via = side == 0 ? start : goal;
+      via[c] = halfway;
+      int first = -1;
+      Growth g = connect_exact(start_tree_, 0, via, first);
+      if (g == Growth::PoolFull) return g;
+      if (g != Growth::Reached) continue;
+      g = connect_exact(start_tree_, first, goal, last);
+      if (g != Growth::Trapped) return g;
+    }
+  }
+  return Growth::Trapped;
+}
+
 void AxisConnectPlanner::shuffle(std::array<int, kMaxJoints>& order) noexcept {
   const int dof = problem_->model->dof();
   for (int j = 0; j < dof; ++j) order[static_cast<std::size_t>(j)] = j;
@@ -226,11 +266,22 @@ void AxisConnectPlanner::merge_collinear() noexcept {
   path_.resize(kept);
 }
 
+double AxisConnectPlanner::path_time_s(const std::vector<JointVector>& path) const noexcept {
+  double t_s = 0.0;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) t_s += staircase_time_s(path[i], path[i + 1]);
+  return t_s;
+}
+
+PlannerStatus AxisConnectPlanner::solved() noexcept {
+  if (!long_way_.empty() && path_time_s(long_way_) < path_time_s(path_)) path_ = long_way_;
+  return status_ = PlannerStatus::Solved;
+}
+
 PlannerStatus AxisConnectPlanner::finish_join() noexcept {
   merge_collinear();
-  if (!shorten_ || path_.size() < 3) return status_ = PlannerStatus::Solved;
+  if (!shorten_ || path_.size() < 3) return solved();
   if (shortener_->begin(*problem_->world, nullptr, path_, problem_->step, 0, true) != PathShortener::Status::Running) {
-    return status_ = PlannerStatus::Solved;
+    return solved();
   }
   shortening_ = true;
   return status_ = PlannerStatus::Running;
@@ -248,11 +299,16 @@ PlannerStatus AxisConnectPlanner::step(int iteration_budget) noexcept {
     path_.clear();
     for (std::size_t i = 0; i < shortener_->size(); ++i) path_.push_back((*shortener_)[i]);
     merge_collinear();
-    return status_ = PlannerStatus::Solved;
+    return solved();
   }
   std::array<int, kMaxJoints> order{};
   for (int k = 0; k < iteration_budget; ++k) {
-    if (iterations_ >= problem_->max_iterations) return status_ = PlannerStatus::IterationLimit;
+    if (iterations_ >= problem_->max_iterations) {
+      // The long way round kept from the first iteration is a valid answer.
+      if (long_way_.empty()) return status_ = PlannerStatus::IterationLimit;
+      path_ = long_way_;
+      return status_ = PlannerStatus::Solved;
+    }
     ++iterations_;
     if (iterations_ == 1) {
       // The direct staircase first: an open site needs no tree.
@@ -262,6 +318,19 @@ PlannerStatus AxisConnectPlanner::step(int iteration_budget) noexcept {
       if (g == Growth::Reached) {
         join(last, 0);
         return finish_join();
+      }
+      if (g == Growth::Trapped) {
+        bool at_once = false;
+        const Growth gl = connect_long_way(last, at_once);
+        if (gl == Growth::PoolFull) return status_ = PlannerStatus::PoolExhausted;
+        if (gl == Growth::Reached) {
+          join(last, 0);
+          if (at_once) return finish_join();
+          // Kept to compare with what the search finds the short way.
+          merge_collinear();
+          long_way_ = path_;
+          path_.clear();
+        }
       }
       continue;
     }
