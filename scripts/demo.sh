@@ -4,8 +4,8 @@
 # site on a CAN bus (SocketCAN when a CAN interface is up, else UDP on loopback); mgc runs the
 # control loop against it; an operator station (mgc-operator) requests the lift with a signed
 # command and shows the guidance and alerts as they come over LCM, while the second crane swings
-# its boom across the west route mid-way (the default planner lifts the boom over the frame, out of
-# its reach; `mgc --replanner drrt` takes the west route and re-plans round it). At the end: mgc's transitions and summary (lift completed,
+# its boom across the west route mid-way: the default planner turns the long way round the west
+# side, the stop check stops the crane for crane 2, and the repair goes round it. At the end: mgc's transitions and summary (lift completed,
 # duration, re-plans, stops, least clearance, alerts, loop timing), mgc-sim's truth line (the
 # true crane's least clearance, measured by the simulator, not the controller), an SVG of what
 # happened (build/demo/lift.svg), the LCM log (build/demo/mgc.lcmlog), the controller's trace and

@@ -9,7 +9,7 @@ root="$2"
 source "$(dirname "$0")/cli_support.sh"
 cd "$root" || exit 1
 
-expect_bad "unknown suite" "^mgc-bench: --suite: expected one of thesis, zhang, replan, langari, sites, kim, all, .*got 'bogus'$" \
+expect_bad "unknown suite" "^mgc-bench: --suite: expected one of thesis, zhang, replan, langari, sites, kim, campaign, all, .*got 'bogus'$" \
   --suite bogus
 expect_bad "zero runs" "^mgc-bench: --runs: expected a number above 0, got '0'" --suite langari --runs 0
 expect_bad "negative sweep step" "^mgc-bench: --sweep-step: expected a number of 0 or more, got '-1'" --suite loop --sweep-step -1
