@@ -18,6 +18,7 @@
 
 #include <mgc/operator_command_t.hpp>
 
+#include "mgc/firmware/black_box.hpp"
 #include "mgc/firmware/command_auth.hpp"
 #include "mgc/firmware/controller.hpp"
 #include "mgc/firmware/cyclic_executive.hpp"
@@ -69,6 +70,8 @@ int main(int argc, char** argv) {
   double valve_deadband_pct = 3.0;
   bool quiet = false;
   int watchdog_misses = 10;
+  std::string black_box_file;
+  double black_box_minutes = firmware::black_box::kDefaultMinutes;
   app.add_option("--scenario", scenario_file, "scenario file (YAML, docs/scenario-format.md)")->required();
   app.add_option("--bus", bus_url, "CAN bus URL: udp:HOST:PORT,peer=HOST:PORT, socketcan:IFNAME, loop:NAME (docs/protocol.md)")
       ->capture_default_str();
@@ -97,6 +100,11 @@ int main(int argc, char** argv) {
   app.add_option("--watchdog-misses", watchdog_misses, "deadline misses in a row that trip the watchdog (a stop and FAULT)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));
+  app.add_option("--black-box", black_box_file,
+                 "record what the loop received and decided into this ring file (docs/black-box.md; mgc-replay replays it)");
+  app.add_option("--black-box-minutes", black_box_minutes, "the ring holds about this many minutes of the thesis lift")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 1440.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -148,17 +156,22 @@ int main(int argc, char** argv) {
     for (const auto& j : scenario.machine.joints) vmax.push_back(j.max_velocity);
     std::vector<std::string> joint_names;
     for (const auto& j : scenario.machine.joints) joint_names.push_back(j.name);
-    hal::Hal hal(*opened.bus, hal::bus_plan_for(planning::to_string(scenario.machine.kind), joint_names), vmax);
-    hal.set_valve_deadband(valve_deadband_pct / 100.0);
+    const auto period_us = static_cast<std::int64_t>(1e6 / rate_hz);
+    firmware::black_box::Identity identity = firmware::black_box::identity_for(scenario, replanner, period_us, valve_deadband_pct / 100.0);
+    firmware::black_box::set_plausible_ranges(identity, scenario);
+    std::unique_ptr<firmware::black_box::BlackBox> black_box;
+    std::unique_ptr<firmware::black_box::RecordingBus> recording_bus;
+    if (!black_box_file.empty()) {
+      black_box = std::make_unique<firmware::black_box::BlackBox>(black_box_file, identity,
+                                                                  firmware::black_box::ring_bytes_for_minutes(black_box_minutes));
+      recording_bus = std::make_unique<firmware::black_box::RecordingBus>(*opened.bus, *black_box);
+    }
+    hal::CanBus& hal_bus = recording_bus ? static_cast<hal::CanBus&>(*recording_bus) : *opened.bus;
+    hal::Hal hal(hal_bus, hal::bus_plan_for(planning::to_string(scenario.machine.kind), joint_names), vmax);
+    firmware::black_box::configure_hal(hal, identity);
 
     firmware::SnapshotQueue snapshots;
     firmware::CommandQueue commands;
-    // Plausible encoder values: the joint's range with a tenth of its span either side, so that
-    // a joint a little past a soft limit is the diagnostics' business, not a bad frame's.
-    for (std::size_t j = 0; j < scenario.machine.joints.size(); ++j) {
-      const planning::JointSpec& spec = scenario.machine.joints[j];
-      if (!spec.continuous) hal.set_joint_plausible_range(j, spec.position_min - 0.1 * spec.range(), spec.position_max + 0.1 * spec.range());
-    }
 
     firmware::FeedConfig feed_config;
     feed_config.lcm_url = lcm_url;
@@ -168,7 +181,6 @@ int main(int argc, char** argv) {
     feed_config.command_state_path = command_state_file;
     firmware::FeedPublisher feed(feed_config, *key, snapshots, commands);
 
-    const auto period_us = static_cast<std::int64_t>(1e6 / rate_hz);
     firmware::MonotonicLoopClock loop_clock;
     firmware::CyclicExecutive executive(loop_clock, {period_us, watchdog_misses});
 
@@ -196,6 +208,8 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     feed.start();
+    if (black_box) black_box->start();
+    std::uint64_t cycles_run = 0;
 
     bool goal_requested = false;
     std::int64_t goal_request_us = -1;
@@ -215,6 +229,10 @@ int main(int argc, char** argv) {
       firmware::ControllerCommands cmd;
       firmware::AcceptedCommand accepted;
       while (commands.try_pop(accepted)) {
+        if (black_box) {
+          black_box->push_command({accepted.kind, accepted.sender_id, accepted.sequence, accepted.num_joints, accepted.goal_position,
+                                   accepted.alert_id, accepted.received_us});
+        }
         if (accepted.kind == operator_command_t::KIND_STOP) cmd.stop = true;
         if (accepted.kind == operator_command_t::KIND_ACKNOWLEDGE) cmd.acknowledge = true;
         if (accepted.kind == operator_command_t::KIND_GOAL) {
@@ -232,12 +250,18 @@ int main(int argc, char** argv) {
         goal_requested = true;
       }
 
-      const firmware::ControllerOutput out =
-          controller.step(s, timing.index == 0 ? period_us : timing.dt_us, cmd, executive.watchdog_tripped());
+      const std::int64_t step_dt_us = timing.index == 0 ? period_us : timing.dt_us;
+      const bool watchdog_tripped = executive.watchdog_tripped();
+      const firmware::ControllerOutput out = controller.step(s, step_dt_us, cmd, watchdog_tripped);
       if (out.start_nodes) (void)hal.send_nmt(hal::canopen::NmtCommand::Start, 0);
       if (out.reset_watchdog) executive.reset_watchdog();
       hal.set_pilot_enabled(out.pilot_enable);
       (void)hal.write(out.velocity, timing.start_us);
+      if (black_box) {
+        black_box->push_cycle(firmware::black_box::make_cycle_entry(cycles_run, timing.start_us, step_dt_us, watchdog_tripped, s, cmd, out,
+                                                                    controller.snapshot(), feed.refusals().total()));
+      }
+      ++cycles_run;
 
       if (out.supervisor.transitioned) {
         using R = guidance::TransitionReason;
@@ -304,6 +328,7 @@ int main(int argc, char** argv) {
     (void)hal.write(zero, bus_clock.now_us());
     feed.run_once(0);
     feed.stop();
+    if (black_box) black_box->close();
 
     if (!trace_csv.empty()) {
       std::ofstream out(trace_csv);
@@ -388,6 +413,16 @@ int main(int argc, char** argv) {
                 es.cycles, period_us, es.compute.percentile_us(0.99), es.compute.max_us(), es.lateness.percentile_us(0.99),
                 es.lateness.max_us(), es.deadline_misses, es.watchdog_trips, snapshots.dropped(),
                 trace_dropped > 0 ? ", trace full" : "");
+    if (black_box) {
+      const firmware::black_box::WriterStats& bs = black_box->stats();
+      const double run_s = std::max(1e-6, static_cast<double>(es.cycles) * static_cast<double>(period_us) * 1e-6);
+      std::printf("mgc: black box: %s, %zu blocks of %zu KiB, %" PRIu64 " records, %" PRIu64 " bytes (%.0f B/s), %" PRIu64
+                  " flushes (write + fdatasync) mean %.0f us max %" PRId64 " us, %" PRIu64 " records dropped%s\n",
+                  black_box_file.c_str(), black_box->num_blocks(), firmware::black_box::kBlockBytes / 1024, bs.entries_written,
+                  bs.bytes_written, static_cast<double>(bs.bytes_written) / run_s, bs.flushes,
+                  bs.flushes > 0 ? static_cast<double>(bs.flush_total_us) / static_cast<double>(bs.flushes) : 0.0, bs.flush_max_us,
+                  black_box->dropped(), black_box->io_error() != 0 ? ", write errors" : "");
+    }
     const firmware::RefusalCounter& refusals = feed.refusals();
     std::printf("mgc: operator commands on LCM: %" PRIu64 " accepted, %" PRIu64 " refused", feed.counters().commands_accepted.load(),
                 refusals.total());

@@ -1,0 +1,106 @@
+// SPDX-License-Identifier: Apache-2.0
+// mgc-replay: reads a black box recording (mgc --black-box), feeds its frames and operator commands
+// to a fresh Hal and Controller in stepped time and compares every cycle's decisions with the
+// recorded ones (docs/black-box.md). Exit 0: identical; 1: a decision differs, or the ring no longer
+// holds the run's start; 2: not a recording, a corrupt record, or the scenario does not match.
+#include <CLI/CLI.hpp>
+
+#include <cinttypes>
+#include <cstdio>
+#include <string>
+
+#include "mgc/firmware/black_box.hpp"
+#include "mgc/planning/io/scenario_loader.hpp"
+
+int main(int argc, char** argv) {
+  using namespace mgc;
+  namespace bb = firmware::black_box;
+  CLI::App app{"mgc-replay: replay a black box recording against a fresh controller (docs/black-box.md)"};
+  std::string file;
+  std::string scenario_file;
+  app.add_option("FILE", file, "the recording (mgc --black-box FILE)")->required();
+  app.add_option("--scenario", scenario_file, "the scenario file (default: the path recorded in the header)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::fprintf(stderr, "mgc-replay: %s (see --help)\n", e.what());
+    return 2;
+  }
+
+  bb::Recording rec;
+  try {
+    rec = bb::read_recording(file);
+  } catch (const bb::BadRecording& e) {
+    std::fprintf(stderr, "mgc-replay: %s\n", e.what());
+    return 2;
+  }
+  const bb::Identity& id = rec.identity;
+  if (scenario_file.empty()) scenario_file = id.scenario_file;
+  planning::Scenario scenario;
+  try {
+    scenario = planning::io::load_scenario(scenario_file);
+    const bb::Identity now = bb::identity_for(scenario, id.replanner, id.period_us, id.valve_deadband);
+    if (now.scenario_hash != id.scenario_hash || now.machine_hash != id.machine_hash) {
+      std::fprintf(stderr,
+                   "mgc-replay: %s: scenario %s (hash %016" PRIx64 ", machine %016" PRIx64 "), expected the recorded %016" PRIx64
+                   " and %016" PRIx64 ": the files changed since the recording\n",
+                   file.c_str(), scenario_file.c_str(), now.scenario_hash, now.machine_hash, id.scenario_hash, id.machine_hash);
+      return 2;
+    }
+  } catch (const planning::io::InputError& e) {
+    std::fprintf(stderr, "mgc-replay: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mgc-replay: %s: %s\n", scenario_file.c_str(), e.what());
+    return 2;
+  }
+
+  std::uint64_t cycles = 0, frames = 0, commands = 0, tx_failures = 0;
+  std::int64_t first_us = -1, last_us = -1;
+  for (const bb::Entry& e : rec.entries) {
+    if (e.type == bb::RecordType::Cycle) {
+      ++cycles;
+      if (first_us < 0) first_us = e.cycle.read_us;
+      last_us = e.cycle.read_us;
+    }
+    frames += e.type == bb::RecordType::Frame ? 1u : 0u;
+    commands += e.type == bb::RecordType::Command ? 1u : 0u;
+    tx_failures += e.type == bb::RecordType::TxFailure ? 1u : 0u;
+  }
+  std::printf("mgc-replay: %s: %s on %s, period %" PRId64 " us, re-planner %s; %zu of %zu blocks used%s\n", file.c_str(),
+              id.machine_name.c_str(), id.scenario_name.c_str(), id.period_us, id.replanner.c_str(), rec.blocks_used, rec.num_blocks,
+              rec.wrapped ? " (wrapped)" : "");
+  std::printf("mgc-replay: %" PRIu64 " cycles over %.2f s, %" PRIu64 " frames, %" PRIu64 " operator commands, %" PRIu64
+              " refused sends; recorded cycle times %" PRId64 " .. %" PRId64 " us\n",
+              cycles, first_us >= 0 ? static_cast<double>(last_us - first_us) * 1e-6 : 0.0, frames, commands, tx_failures, first_us,
+              last_us);
+  if (rec.ended) {
+    std::printf("mgc-replay: the recording ends cleanly (the recorder was closed)\n");
+  } else {
+    std::printf("mgc-replay: the recording ends without its end record: the recorder was killed or lost power, and what it had not "
+                "yet written (under a second) is lost%s\n",
+                rec.torn_tail_bytes > 0 ? "; a torn tail was dropped" : "");
+  }
+  if (rec.torn_tail_bytes > 0) std::printf("mgc-replay: truncated tail: %zu bytes not a whole record, dropped\n", rec.torn_tail_bytes);
+
+  bb::ReplayResult r;
+  try {
+    r = bb::replay(rec, scenario);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mgc-replay: %s: %s\n", file.c_str(), e.what());
+    return 2;
+  }
+  if (!r.replayable) {
+    std::printf("mgc-replay: cannot replay: %s\n", r.why_not.c_str());
+    return 1;
+  }
+  if (r.identical) {
+    std::printf("mgc-replay: identical for %" PRIu64 " cycles (%" PRIu64 " frames, %" PRIu64 " supervisor transitions)\n", r.cycles,
+                r.frames, r.transitions);
+    return 0;
+  }
+  std::printf("mgc-replay: differs at cycle %" PRIu64 " (t %" PRId64 " us, after %" PRIu64 " identical cycles): %s recorded %s, replayed %s\n",
+              r.first_cycle, r.first_read_us, r.cycles, r.field.c_str(), r.recorded.c_str(), r.replayed.c_str());
+  return 1;
+}
