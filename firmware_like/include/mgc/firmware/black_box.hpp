@@ -185,6 +185,8 @@ class BlackBox {
   void push_cycle(const CycleEntry& cycle) noexcept;
 
   [[nodiscard]] std::uint64_t dropped() const noexcept { return queue_->dropped(); }
+  //! Entries waiting for the writer. [-]
+  [[nodiscard]] std::size_t pending() const noexcept { return queue_->size(); }
   //! Valid after close().
   [[nodiscard]] const WriterStats& stats() const noexcept { return stats_; }
   [[nodiscard]] std::size_t num_blocks() const noexcept { return num_blocks_; }
