@@ -595,13 +595,19 @@ Recording read_recording(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw BadRecording(path + ": cannot be read");
   const std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (file.size() >= 4) {
+    Reader m(file.data(), 4);
+    const std::uint32_t magic = m.u32();
+    if (magic != kFileMagic) {
+      throw BadRecording(offset_text(path, 0) + ": magic " + std::to_string(magic) + ", expected MGBX: not a black box recording");
+    }
+  }
   if (file.size() < kFileHeaderBytes) {
     throw BadRecording(offset_text(path, 0) + ": " + std::to_string(file.size()) + " bytes, expected a black box of at least " +
                        std::to_string(kFileHeaderBytes));
   }
   Reader h(file.data(), kFileHeaderBytes - 4);
-  const std::uint32_t magic = h.u32();
-  if (magic != kFileMagic) throw BadRecording(offset_text(path, 0) + ": magic " + std::to_string(magic) + ", expected MGBX: not a black box recording");
+  (void)h.u32();  // the magic, checked above
   const std::uint32_t version = h.u32();
   if (version != kFormatVersion) {
     throw BadRecording(offset_text(path, 4) + ": format version " + std::to_string(version) + ", expected " + std::to_string(kFormatVersion));

@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
+# The black box of a real process: mgc with --black-box against mgc-sim over UDP on loopback, killed
+# with SIGKILL a few seconds into the lift; mgc-replay on what it left replays identically up to the
+# kill, and the cycles lost with the kill span less than a second. Then the bad-input contract: not
+# a recording, and a corrupt record in the middle named by its offset (exit 2, one line).
+#   black_box_kill_test.sh MGC MGC_SIM MGC_REPLAY SOURCE_DIR
+set -u
+mgc="$1"
+sim="$2"
+replay="$3"
+root="$4"
+cli="$replay"
+source "$root/tests/tools/cli_support.sh"
+scenario="$root/scenarios/thesis-steel-frame.yaml"
+monotonic_us() { python3 -c 'import time; print(time.monotonic_ns() // 1000)'; }
+
+# Ports of this test, above mgc_udp_loop_hil's 49000..54999.
+base=$((55000 + ($$ % 2000) * 2))
+sim_port=$base
+mgc_port=$((base + 1))
+
+"$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$sim_port,peer=127.0.0.1:$mgc_port" --duration 20 --quiet >"$tmp/sim.out" 2>&1 &
+sim_pid=$!
+sleep 0.3
+"$mgc" --scenario "$scenario" --bus "udp:127.0.0.1:$mgc_port,peer=127.0.0.1:$sim_port" --lcm-url memq:// --goal-on-start \
+  --duration 20 --black-box "$tmp/run.mgcbb" >"$tmp/mgc.out" 2>&1 &
+mgc_pid=$!
+sleep 4
+kill_us=$(monotonic_us)
+kill -KILL "$mgc_pid"
+wait "$mgc_pid" 2>/dev/null
+code=$?
+kill "$sim_pid" 2>/dev/null
+wait "$sim_pid" 2>/dev/null
+[ "$code" -eq 137 ] || fail "mgc exited $code, expected 137 (killed): $(cat "$tmp/mgc.out")"
+
+"$replay" "$tmp/run.mgcbb" >"$tmp/replay.out" 2>"$tmp/replay.err"
+rc=$?
+cat "$tmp/replay.out" "$tmp/replay.err"
+[ "$rc" -eq 0 ] || fail "mgc-replay exited $rc, expected 0 (identical)"
+line=$(grep -E '^mgc-replay: identical for [0-9]+ cycles' "$tmp/replay.out")
+[ -n "$line" ] || fail "no 'identical for N cycles'"
+read -r cycles transitions <<<"$(sed -E 's/^mgc-replay: identical for ([0-9]+) cycles \([0-9]+ frames, ([0-9]+) supervisor transitions\)/\1 \2/' <<<"$line")"
+# Some 3.7 s at 100 Hz before the kill; the lift started (INIT -> HOLD -> PLANNING -> EXECUTING).
+[ "${cycles:-0}" -ge 200 ] || fail "$cycles cycles replayed, expected at least 200"
+[ "${transitions:-0}" -ge 3 ] || fail "$transitions supervisor transitions, expected the lift to start"
+grep -q 'ends without its end record' "$tmp/replay.out" || fail "the kill was not reported"
+last_us=$(sed -nE 's/.*recorded cycle times [0-9-]+ \.\. ([0-9-]+) us$/\1/p' "$tmp/replay.out")
+lost_us=$((kill_us - ${last_us:-0}))
+echo "parsed: cycles=$cycles transitions=$transitions kill_us=$kill_us last_recorded_us=$last_us lost_us=$lost_us"
+[ "$lost_us" -ge 0 ] && [ "$lost_us" -lt 1000000 ] || fail "the recording ends $lost_us us before the kill, expected under 1 s"
+
+expect_bad "not a recording" "^mgc-replay: .*scenario.*\(offset 0\): magic .*not a black box recording$" "$scenario"
+python3 - "$tmp/run.mgcbb" "$tmp/corrupt.mgcbb" <<'PY'
+import sys
+data = bytearray(open(sys.argv[1], "rb").read())
+data[4096 + 32 + 1000] ^= 0x40  # a byte inside the first block's records
+open(sys.argv[2], "wb").write(data)
+PY
+expect_bad "a corrupt record in the middle" "^mgc-replay: .*corrupt\.mgcbb \(offset [0-9]+\): record CRC mismatch in the middle" "$tmp/corrupt.mgcbb"
+finish "the black box of a killed mgc"
