@@ -594,26 +594,37 @@ hal::ReceiveResult RecordingBus::receive(std::span<hal::TimedFrame> out) noexcep
 Recording read_recording(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw BadRecording(path + ": cannot be read");
-  const std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (file.size() >= 4) {
-    Reader m(file.data(), 4);
+  in.seekg(0, std::ios::end);
+  const auto file_size = static_cast<std::size_t>(std::max<std::streamoff>(0, in.tellg()));
+  // Only the header, the block headers and the blocks in use are read: a ring is mostly unused
+  // (a sparse file) until it wraps.
+  const auto data = std::make_unique_for_overwrite<std::uint8_t[]>(std::max<std::size_t>(file_size, 1));
+  const auto read_at = [&](std::size_t offset, std::size_t n) {
+    in.seekg(static_cast<std::streamoff>(offset), std::ios::beg);
+    if (!in.read(reinterpret_cast<char*>(data.get() + offset), static_cast<std::streamsize>(n))) {
+      throw BadRecording(offset_text(path, offset) + ": cannot be read");
+    }
+  };
+  read_at(0, std::min(file_size, kFileHeaderBytes));
+  if (file_size >= 4) {
+    Reader m(data.get(), 4);
     const std::uint32_t magic = m.u32();
     if (magic != kFileMagic) {
       throw BadRecording(offset_text(path, 0) + ": magic " + std::to_string(magic) + ", expected MGBX: not a black box recording");
     }
   }
-  if (file.size() < kFileHeaderBytes) {
-    throw BadRecording(offset_text(path, 0) + ": " + std::to_string(file.size()) + " bytes, expected a black box of at least " +
+  if (file_size < kFileHeaderBytes) {
+    throw BadRecording(offset_text(path, 0) + ": " + std::to_string(file_size) + " bytes, expected a black box of at least " +
                        std::to_string(kFileHeaderBytes));
   }
-  Reader h(file.data(), kFileHeaderBytes - 4);
+  Reader h(data.get(), kFileHeaderBytes - 4);
   (void)h.u32();  // the magic, checked above
   const std::uint32_t version = h.u32();
   if (version != kFormatVersion) {
     throw BadRecording(offset_text(path, 4) + ": format version " + std::to_string(version) + ", expected " + std::to_string(kFormatVersion));
   }
-  Reader crc_at(file.data() + kFileHeaderBytes - 4, 4);
-  if (crc_at.u32() != crc32(file.data(), kFileHeaderBytes - 4)) throw BadRecording(offset_text(path, kFileHeaderBytes - 4) + ": header CRC mismatch");
+  Reader crc_at(data.get() + kFileHeaderBytes - 4, 4);
+  if (crc_at.u32() != crc32(data.get(), kFileHeaderBytes - 4)) throw BadRecording(offset_text(path, kFileHeaderBytes - 4) + ": header CRC mismatch");
   const std::uint32_t header_bytes = h.u32();
   const std::uint32_t block_bytes = h.u32();
   const std::uint32_t num_blocks = h.u32();
@@ -648,21 +659,23 @@ Recording read_recording(const std::string& path) {
   std::vector<Block> blocks;
   for (std::size_t b = 0; b < num_blocks; ++b) {
     const std::size_t offset = kFileHeaderBytes + b * kBlockBytes;
-    if (offset + kBlockBytes > file.size()) {
+    if (offset + kBlockBytes > file_size) {
       // A ring is sized up front: a shorter file was cut, and the blocks past the cut are lost.
-      if (offset < file.size()) rec.torn_tail_bytes += file.size() - offset;
+      if (offset < file_size) rec.torn_tail_bytes += file_size - offset;
       break;
     }
-    Reader bh(file.data() + offset, kBlockHeaderBytes);
+    read_at(offset, kBlockHeaderBytes);
+    Reader bh(data.get() + offset, kBlockHeaderBytes);
     const std::uint32_t bmagic = bh.u32();
     const std::uint32_t bcrc = bh.u32();
     const std::uint64_t seq = bh.u64();
     const std::uint32_t used = bh.u32();
     if (bmagic == 0 && bcrc == 0 && seq == 0) continue;  // never written
-    if (bmagic != kBlockMagic || bcrc != crc32(file.data() + offset + 8, kBlockHeaderBytes - 8) || used < kBlockHeaderBytes ||
+    if (bmagic != kBlockMagic || bcrc != crc32(data.get() + offset + 8, kBlockHeaderBytes - 8) || used < kBlockHeaderBytes ||
         used > kBlockBytes) {
       throw BadRecording(offset_text(path, offset) + ": block " + std::to_string(b) + " header corrupt (magic, CRC or length)");
     }
+    read_at(offset + kBlockHeaderBytes, used - kBlockHeaderBytes);
     blocks.push_back({seq, offset, used});
   }
   std::sort(blocks.begin(), blocks.end(), [](const Block& a, const Block& b) { return a.seq < b.seq; });
@@ -684,14 +697,14 @@ Recording read_recording(const std::string& path) {
       std::size_t len = 0;
       RecordType type = RecordType::Frame;
       if (good) {
-        Reader rh(file.data() + at, kRecordHeaderBytes);
+        Reader rh(data.get() + at, kRecordHeaderBytes);
         const std::uint32_t crc = rh.u32();
         type = static_cast<RecordType>(rh.u16());
         len = rh.u16();
-        good = pos + kRecordHeaderBytes + len <= b.used && crc == crc32(file.data() + at + 4, 4 + len);
+        good = pos + kRecordHeaderBytes + len <= b.used && crc == crc32(data.get() + at + 4, 4 + len);
       }
       Entry e;
-      if (good && !decode_payload(type, file.data() + at + kRecordHeaderBytes, len, e)) {
+      if (good && !decode_payload(type, data.get() + at + kRecordHeaderBytes, len, e)) {
         throw BadRecording(offset_text(path, at) + ": record type " + std::to_string(static_cast<int>(type)) + " of " +
                            std::to_string(len) + " bytes does not decode");
       }

@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   std::string scenario_file;
   app.add_option("FILE", file, "the recording (mgc --black-box FILE)")->required();
   app.add_option("--scenario", scenario_file, "the scenario file (default: the path recorded in the header)");
+  bool summary_only = false;
+  app.add_flag("--summary", summary_only, "print what the recording holds and stop (no scenario needed, no replay)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -36,26 +38,6 @@ int main(int argc, char** argv) {
     return 2;
   }
   const bb::Identity& id = rec.identity;
-  if (scenario_file.empty()) scenario_file = id.scenario_file;
-  planning::Scenario scenario;
-  try {
-    scenario = planning::io::load_scenario(scenario_file);
-    const bb::Identity now = bb::identity_for(scenario, id.replanner, id.period_us, id.valve_deadband);
-    if (now.scenario_hash != id.scenario_hash || now.machine_hash != id.machine_hash) {
-      std::fprintf(stderr,
-                   "mgc-replay: %s: scenario %s (hash %016" PRIx64 ", machine %016" PRIx64 "), expected the recorded %016" PRIx64
-                   " and %016" PRIx64 ": the files changed since the recording\n",
-                   file.c_str(), scenario_file.c_str(), now.scenario_hash, now.machine_hash, id.scenario_hash, id.machine_hash);
-      return 2;
-    }
-  } catch (const planning::io::InputError& e) {
-    std::fprintf(stderr, "mgc-replay: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "mgc-replay: %s: %s\n", scenario_file.c_str(), e.what());
-    return 2;
-  }
-
   std::uint64_t cycles = 0, frames = 0, commands = 0, tx_failures = 0;
   std::int64_t first_us = -1, last_us = -1;
   for (const bb::Entry& e : rec.entries) {
@@ -78,11 +60,33 @@ int main(int argc, char** argv) {
   if (rec.ended) {
     std::printf("mgc-replay: the recording ends cleanly (the recorder was closed)\n");
   } else {
-    std::printf("mgc-replay: the recording ends without its end record: the recorder was killed or lost power, and what it had not "
-                "yet written (under a second) is lost%s\n",
+    std::printf("mgc-replay: the recording ends without its end record: the recorder still runs, or was killed or lost power and "
+                "what it had not yet written (under a second) is lost%s\n",
                 rec.torn_tail_bytes > 0 ? "; a torn tail was dropped" : "");
   }
   if (rec.torn_tail_bytes > 0) std::printf("mgc-replay: truncated tail: %zu bytes not a whole record, dropped\n", rec.torn_tail_bytes);
+
+  if (summary_only) return 0;
+
+  if (scenario_file.empty()) scenario_file = id.scenario_file;
+  planning::Scenario scenario;
+  try {
+    scenario = planning::io::load_scenario(scenario_file);
+    const bb::Identity now = bb::identity_for(scenario, id.replanner, id.period_us, id.valve_deadband);
+    if (now.scenario_hash != id.scenario_hash || now.machine_hash != id.machine_hash) {
+      std::fprintf(stderr,
+                   "mgc-replay: %s: scenario %s (hash %016" PRIx64 ", machine %016" PRIx64 "), expected the recorded %016" PRIx64
+                   " and %016" PRIx64 ": the files changed since the recording\n",
+                   file.c_str(), scenario_file.c_str(), now.scenario_hash, now.machine_hash, id.scenario_hash, id.machine_hash);
+      return 2;
+    }
+  } catch (const planning::io::InputError& e) {
+    std::fprintf(stderr, "mgc-replay: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mgc-replay: %s: %s\n", scenario_file.c_str(), e.what());
+    return 2;
+  }
 
   bb::ReplayResult r;
   try {

@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: Apache-2.0
 # The black box of a real process: mgc with --black-box against mgc-sim over UDP on loopback, killed
 # with SIGKILL a few seconds into the lift; mgc-replay on what it left replays identically up to the
-# kill, and the cycles lost with the kill span less than a second. Then the bad-input contract: not
+# kill, and the cycles lost with the kill span less than a second (and, sampled while mgc runs, the
+# ring is never more than a second behind). Then the bad-input contract: not
 # a recording, and a corrupt record in the middle named by its offset (exit 2, one line).
 #   black_box_kill_test.sh MGC MGC_SIM MGC_REPLAY SOURCE_DIR
 set -u
@@ -26,7 +27,31 @@ sleep 0.3
 "$mgc" --scenario "$scenario" --bus "udp:127.0.0.1:$mgc_port,peer=127.0.0.1:$sim_port" --lcm-url memq:// --goal-on-start \
   --duration 20 --black-box "$tmp/run.mgcbb" >"$tmp/mgc.out" 2>&1 &
 mgc_pid=$!
-sleep 4
+# The ring while mgc writes it, read every 0.1 s for 3 s (mgc-replay --summary): its last cycle is
+# never a second old. A recorder that wrote only whole blocks (some 1.5 s of the lift each) would
+# fall more than a second behind for a third of the time.
+sleep 1.5
+python3 - "$replay" "$tmp/run.mgcbb" >"$tmp/live.out" <<'PY'
+import re, subprocess, sys, time
+worst_us, samples = -10**9, 0
+end = time.monotonic() + 3.0
+while time.monotonic() < end:
+    now_us = time.monotonic_ns() // 1000
+    out = subprocess.run([sys.argv[1], sys.argv[2], "--summary"], capture_output=True, text=True)
+    m = re.search(r"recorded cycle times -?\d+ \.\. (-?\d+) us", out.stdout)
+    if out.returncode != 0 or not m:
+        print(f"exit {out.returncode}: {out.stdout}{out.stderr}")
+        sys.exit(1)
+    worst_us = max(worst_us, now_us - int(m.group(1)))
+    samples += 1
+    time.sleep(0.1)
+print(f"{samples} {worst_us}")
+PY
+[ $? -eq 0 ] || fail "reading the live ring: $(cat "$tmp/live.out")"
+read -r samples worst_lag_us <"$tmp/live.out"
+echo "live: $samples samples, the ring's last cycle at most $worst_lag_us us old"
+[ "${samples:-0}" -ge 10 ] || fail "$samples samples of the live ring, expected at least 10"
+[ "${worst_lag_us:-9999999}" -lt 1000000 ] || fail "the live ring fell $worst_lag_us us behind, expected under 1 s"
 kill_us=$(monotonic_us)
 kill -KILL "$mgc_pid"
 wait "$mgc_pid" 2>/dev/null
@@ -42,8 +67,8 @@ cat "$tmp/replay.out" "$tmp/replay.err"
 line=$(grep -E '^mgc-replay: identical for [0-9]+ cycles' "$tmp/replay.out")
 [ -n "$line" ] || fail "no 'identical for N cycles'"
 read -r cycles transitions <<<"$(sed -E 's/^mgc-replay: identical for ([0-9]+) cycles \([0-9]+ frames, ([0-9]+) supervisor transitions\)/\1 \2/' <<<"$line")"
-# Some 3.7 s at 100 Hz before the kill; the lift started (INIT -> HOLD -> PLANNING -> EXECUTING).
-[ "${cycles:-0}" -ge 200 ] || fail "$cycles cycles replayed, expected at least 200"
+# Some 4.5 s at 100 Hz before the kill; the lift started (INIT -> HOLD -> PLANNING -> EXECUTING).
+[ "${cycles:-0}" -ge 300 ] || fail "$cycles cycles replayed, expected at least 300"
 [ "${transitions:-0}" -ge 3 ] || fail "$transitions supervisor transitions, expected the lift to start"
 grep -q 'ends without its end record' "$tmp/replay.out" || fail "the kill was not reported"
 last_us=$(sed -nE 's/.*recorded cycle times [0-9-]+ \.\. ([0-9-]+) us$/\1/p' "$tmp/replay.out")
