@@ -80,7 +80,7 @@ fi
   "${sim_lock[@]}" --truth-csv "$out/truth.csv" >"$out/sim.txt" &
 sim_pid=$!
 "$bin/mgc" --scenario "$site" "${mgc_bus[@]}" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 600 \
-  --trace-csv "$out/trace.csv" "${mgc_rt[@]}" >"$out/mgc.txt" 2>&1 &
+  --trace-csv "$out/trace.csv" --black-box "$out/mgc.blackbox" "${mgc_rt[@]}" >"$out/mgc.txt" 2>&1 &
 mgc_pid=$!
 "$bin/mgc-operator" --key "$key" --lcm-url "$lcm_url" --scenario "$site" --goal --watch 600 --until-done || status=$?
 mgc_status=0

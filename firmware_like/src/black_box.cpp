@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -396,7 +397,8 @@ std::uint64_t hash_file(const std::string& path) {
 
 Identity identity_for(const planning::Scenario& scenario, const std::string& replanner, std::int64_t period_us, double valve_deadband) {
   Identity id;
-  id.scenario_file = scenario.file;
+  // Absolute, so that mgc-replay finds it from any folder.
+  id.scenario_file = scenario.file.empty() ? std::string() : std::filesystem::absolute(scenario.file).lexically_normal().string();
   id.scenario_name = scenario.name;
   id.machine_name = scenario.machine.name;
   id.scenario_hash = scenario.file.empty() ? 0 : hash_file(scenario.file);

@@ -35,7 +35,7 @@ inline constexpr std::size_t kBlockHeaderBytes = 32;       //!< [bytes]
 inline constexpr std::size_t kBlockBytes = 64 * 1024;      //!< header + records, never split [bytes]
 inline constexpr std::size_t kRecordHeaderBytes = 8;       //!< crc32, type, payload length [bytes]
 //! What the thesis lift records, measured with mgc on mgc-sim over UDP (docs/black-box.md). [bytes/s]
-inline constexpr std::size_t kMeasuredBytesPerSecond = 80'000;
+inline constexpr std::size_t kMeasuredBytesPerSecond = 45'000;
 inline constexpr double kDefaultMinutes = 10.0;            //!< [min]
 inline constexpr std::int64_t kFlushPeriodUs = 250'000;    //!< write + fdatasync at least this often [µs]
 inline constexpr std::size_t kQueueCapacity = 8192;        //!< entries: about 4 s of the thesis lift [-]
