@@ -38,7 +38,7 @@ inline constexpr std::size_t kRecordHeaderBytes = 8;       //!< crc32, type, pay
 inline constexpr std::size_t kMeasuredBytesPerSecond = 45'000;
 inline constexpr double kDefaultMinutes = 10.0;            //!< [min]
 inline constexpr std::int64_t kFlushPeriodUs = 250'000;    //!< write + fdatasync at least this often [µs]
-inline constexpr std::size_t kQueueCapacity = 8192;        //!< entries: about 4 s of the thesis lift [-]
+inline constexpr std::size_t kQueueCapacity = 8192;        //!< entries: about 9 s of the thesis lift [-]
 
 enum class RecordType : std::uint16_t {
   Frame = 1,      //!< a CAN frame as the Hal received it
