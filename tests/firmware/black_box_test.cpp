@@ -191,3 +191,29 @@ TEST_CASE("a corrupt record in the middle is named by its offset, a cut tail is 
     CHECK_THROWS_AS(bb::read_recording(path), bb::BadRecording);
   }
 }
+
+TEST_CASE("a ring that has wrapped is read but not replayed", "[firmware][sim][black-box]") {
+  const bb::Recording rec = bb::read_recording(recorded_lift());
+  // Two blocks for a recording of some twenty: the oldest are overwritten.
+  const std::string path = scratch("wrapped.mgcbb");
+  bb::write_recording(path, rec, bb::kFileHeaderBytes + 2 * bb::kBlockBytes);
+  const bb::Recording wrapped = bb::read_recording(path);
+  CHECK(wrapped.wrapped);
+  CHECK(wrapped.num_blocks == 2);
+  CHECK(wrapped.blocks_used == 2);
+  CHECK(wrapped.ended);
+  REQUIRE(wrapped.entries.size() > 100);
+  CHECK(wrapped.entries.size() < rec.entries.size() / 5);
+  // What it holds is the newest part of the lift, in order.
+  std::uint64_t last = 0;
+  for (const bb::Entry& e : wrapped.entries) {
+    if (e.type != bb::RecordType::Cycle) continue;
+    CHECK(e.cycle.cycle > last);
+    last = e.cycle.cycle;
+  }
+  CHECK(last == 2999);
+  const planning::Scenario scenario = planning::io::load_scenario(test::scenario_path("thesis-steel-frame.yaml"));
+  const bb::ReplayResult r = bb::replay(wrapped, scenario);
+  CHECK_FALSE(r.replayable);
+  CHECK(r.why_not.find("wrapped") != std::string::npos);
+}

@@ -84,4 +84,11 @@ data[4096 + 32 + 1000] ^= 0x40  # a byte inside the first block's records
 open(sys.argv[2], "wb").write(data)
 PY
 expect_bad "a corrupt record in the middle" "^mgc-replay: .*corrupt\.mgcbb \(offset [0-9]+\): record CRC mismatch in the middle" "$tmp/corrupt.mgcbb"
+# The scenario changed since the recording: a copy with one more line, beside the same machines.
+mkdir -p "$tmp/site"
+cp "$scenario" "$tmp/site/thesis-steel-frame.yaml"
+echo "# edited" >>"$tmp/site/thesis-steel-frame.yaml"
+ln -s "$root/scenarios/machines" "$tmp/site/machines"
+expect_bad "an edited scenario" "^mgc-replay: .*run\.mgcbb: scenario .*site/thesis-steel-frame\.yaml \(hash [0-9a-f]+, .*changed since the recording$" \
+  "$tmp/run.mgcbb" --scenario "$tmp/site/thesis-steel-frame.yaml"
 finish "the black box of a killed mgc"
