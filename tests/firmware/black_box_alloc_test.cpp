@@ -19,10 +19,19 @@ namespace bb = mgc::firmware::black_box;
 
 namespace {
 
+//! This process's scratch folder, removed at exit.
+struct ScratchDir {
+  std::filesystem::path dir = std::filesystem::temp_directory_path() / ("mgc-black-box-alloc-test-" + std::to_string(::getpid()));
+  ScratchDir() { std::filesystem::create_directories(dir); }
+  ~ScratchDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(dir, ignored);
+  }
+};
+
 std::string scratch(const char* name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("mgc-black-box-alloc-test-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
+  static const ScratchDir scratch_dir;
+  return (scratch_dir.dir / name).string();
 }
 
 }  // namespace
