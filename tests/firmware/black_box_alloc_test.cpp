@@ -19,18 +19,9 @@ namespace bb = mgc::firmware::black_box;
 
 namespace {
 
-//! This process's scratch folder, removed at exit.
-struct ScratchDir {
-  std::filesystem::path dir = std::filesystem::temp_directory_path() / ("mgc-black-box-alloc-test-" + std::to_string(::getpid()));
-  ScratchDir() { std::filesystem::create_directories(dir); }
-  ~ScratchDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(dir, ignored);
-  }
-};
-
+//! A file in this process's scratch folder, removed at exit.
 std::string scratch(const char* name) {
-  static const ScratchDir scratch_dir;
+  static const test::ScratchDir scratch_dir("mgc-black-box-alloc-test-");
   return (scratch_dir.dir / name).string();
 }
 

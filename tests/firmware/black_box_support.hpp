@@ -5,15 +5,34 @@
 // through a RecordingBus, accepted commands and each cycle's entry go into the BlackBox.
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
+
+#include <unistd.h>
 
 #include "../sim/sim_rig.hpp"
 #include "mgc/firmware/black_box.hpp"
 #include "mgc/firmware/controller.hpp"
 
 namespace mgc::test {
+
+//! A scratch folder named for its test program and this process, removed with everything in it
+//! when the program ends.
+struct ScratchDir {
+  std::filesystem::path dir;
+  explicit ScratchDir(const std::string& prefix)
+      : dir(std::filesystem::temp_directory_path() / (prefix + std::to_string(::getpid()))) {
+    std::filesystem::create_directories(dir);
+  }
+  ~ScratchDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(dir, ignored);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+};
 
 struct RecordedLift {
   SimRig rig;

@@ -7,12 +7,12 @@
 // what is drawn and measured and the targets.
 
 #include "campaign_bench.hpp"
+#include "timing_report.hpp"
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstdarg>
 #include <cstdint>
 #include <cstdio>
 #include <exception>
@@ -48,37 +48,6 @@ using guidance::TransitionReason;
 using sim::SteppedRig;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-
-//! printf into a std::string of whatever length it takes.
-[[gnu::format(printf, 1, 2)]] std::string fmt(const char* format, ...) {
-  std::va_list args;
-  va_start(args, format);
-  std::va_list copy;
-  va_copy(copy, args);
-  const int n = std::vsnprintf(nullptr, 0, format, copy);
-  va_end(copy);
-  std::string text(static_cast<std::size_t>(std::max(n, 0)) + 1, '\0');
-  std::vsnprintf(text.data(), text.size(), format, args);
-  va_end(args);
-  text.resize(static_cast<std::size_t>(std::max(n, 0)));
-  return text;
-}
-
-//! Nearest-rank percentile, as the other suites compute theirs; NaN for no values.
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::sort(values.begin(), values.end());
-  const double rank = std::ceil(p * static_cast<double>(values.size())) - 1.0;
-  return values[static_cast<std::size_t>(std::clamp(rank, 0.0, static_cast<double>(values.size() - 1)))];
-}
-
-//! /proc/loadavg's first three fields: how busy the shared machine was around the run.
-std::string load_average() {
-  std::ifstream in("/proc/loadavg");
-  std::string one, five, fifteen;
-  if (!(in >> one >> five >> fifteen)) return "unknown";
-  return one + " " + five + " " + fifteen;
-}
 
 //! The shipped sites the campaign draws from, with what can intrude on each.
 struct Site {
