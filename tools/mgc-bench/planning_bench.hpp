@@ -6,8 +6,12 @@
 // transposed tables (one column per planner, the paper's figures in the columns beside), the
 // CSV/JSON files and a progress bar.
 
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -156,7 +160,14 @@ struct Summary {
 //! "**met**" or "**not met**", for the target lines.
 [[nodiscard]] const char* verdict(bool met);
 
-[[nodiscard]] double percentile(std::vector<double> values, double p);
+//! Nearest-rank percentile p (0..1) of the values; NaN for none. Every suite reports with it.
+[[nodiscard]] inline double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(values.begin(), values.end());
+  const double rank = std::ceil(p * static_cast<double>(values.size())) - 1.0;
+  const auto index = static_cast<std::size_t>(std::clamp(rank, 0.0, static_cast<double>(values.size() - 1)));
+  return values[index];
+}
 [[nodiscard]] double mean(const std::vector<double>& values);
 [[nodiscard]] double standard_deviation(const std::vector<double>& values);
 
