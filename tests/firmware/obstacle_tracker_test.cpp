@@ -25,7 +25,20 @@ struct Errors {
   int samples = 0;
   [[nodiscard]] double rms_position_m() const { return std::sqrt(sum_sq_position / samples); }
   [[nodiscard]] double rms_yaw_deg() const { return std::sqrt(sum_sq_yaw / samples); }
+  void add(double position_m, double yaw_deg) {
+    max_position_m = std::max(max_position_m, position_m);
+    sum_sq_position += position_m * position_m;
+    max_yaw_deg = std::max(max_yaw_deg, yaw_deg);
+    sum_sq_yaw += yaw_deg * yaw_deg;
+    ++samples;
+  }
 };
+
+//! The tracker's heading error against the true pose, the short way round. [deg]
+double yaw_error_deg(const ObstacleTracker& tracker, const Eigen::Isometry3d& truth) {
+  const double truth_yaw = std::atan2(truth.linear()(1, 0), truth.linear()(0, 0));
+  return std::abs(std::remainder(tracker.yaw_rad() - truth_yaw, 2.0 * std::numbers::pi)) * kRadToDeg;
+}
 
 //! Runs the rig with a tracker on crane 2 and compares with the truth every cycle once tracked.
 Errors track(SimRig& rig, ObstacleTracker& tracker, std::int64_t duration_us) {
@@ -34,14 +47,7 @@ Errors track(SimRig& rig, ObstacleTracker& tracker, std::int64_t duration_us) {
     (void)tracker.update(s, s.t_us);
     if (!tracker.valid(s.t_us)) return;
     const Eigen::Isometry3d truth = rig.sim->obstacle_pose(0);
-    const double dp = (tracker.position_m() - truth.translation()).norm();
-    const double truth_yaw = std::atan2(truth.linear()(1, 0), truth.linear()(0, 0));
-    const double dyaw = std::abs(std::remainder(tracker.yaw_rad() - truth_yaw, 2.0 * std::numbers::pi)) * kRadToDeg;
-    e.max_position_m = std::max(e.max_position_m, dp);
-    e.sum_sq_position += dp * dp;
-    e.max_yaw_deg = std::max(e.max_yaw_deg, dyaw);
-    e.sum_sq_yaw += dyaw * dyaw;
-    ++e.samples;
+    e.add((tracker.position_m() - truth.translation()).norm(), yaw_error_deg(tracker, truth));
   };
   rig.run(duration_us);
   return e;
@@ -66,22 +72,16 @@ TEST_CASE("tracker: exact fixes give the exact pose, also while the crane swings
   Errors moving;
   std::int64_t seen_us = -1;
   bool still_while_swinging = false;
-  const auto add = [](Errors& e, double dp, double dyaw) {
-    e.max_position_m = std::max(e.max_position_m, dp);
-    e.max_yaw_deg = std::max(e.max_yaw_deg, dyaw);
-    ++e.samples;
-  };
   rig.on_cycle = [&](const hal::SensorSnapshot& s) {
     (void)tracker.update(s, s.t_us);
     if (!tracker.valid(s.t_us)) return;
     const Eigen::Isometry3d truth = rig.sim->obstacle_pose(0);
     const double dp = (tracker.position_m() - truth.translation()).norm();
-    const double truth_yaw = std::atan2(truth.linear()(1, 0), truth.linear()(0, 0));
-    const double dyaw = std::abs(std::remainder(tracker.yaw_rad() - truth_yaw, 2.0 * std::numbers::pi)) * kRadToDeg;
-    if (s.t_us < SimRig::at_sim_s(2.0)) add(standing, dp, dyaw);
+    const double dyaw = yaw_error_deg(tracker, truth);
+    if (s.t_us < SimRig::at_sim_s(2.0)) standing.add(dp, dyaw);
     if (s.t_us >= SimRig::at_sim_s(2.0) && seen_us < 0 && !tracker.still()) seen_us = s.t_us;
     if (seen_us >= 0 && s.t_us < SimRig::at_sim_s(26.0)) {
-      add(moving, dp, dyaw);
+      moving.add(dp, dyaw);
       still_while_swinging = still_while_swinging || tracker.still();
     }
   };
@@ -199,27 +199,17 @@ TEST_CASE("tracker: a standing truck is posed by the average of its fixes, and i
     bool still_throughout = true;
     double sigma_m = 0.0;
     std::int64_t seen_us = -1;
-    const auto add = [](Errors& e, double dp, double dyaw) {
-      e.max_position_m = std::max(e.max_position_m, dp);
-      e.sum_sq_position += dp * dp;
-      e.max_yaw_deg = std::max(e.max_yaw_deg, dyaw);
-      e.sum_sq_yaw += dyaw * dyaw;
-      ++e.samples;
-    };
     rig.on_cycle = [&](const hal::SensorSnapshot& s) {
       (void)tracker.update(s, s.t_us);
       (void)single.update(s, s.t_us);
       const Eigen::Isometry3d truth = rig.sim->obstacle_pose(0);
-      const double truth_yaw = std::atan2(truth.linear()(1, 0), truth.linear()(0, 0));
       // Standing from 2 s; its last moving fixes leave the fusion window 0.25 s later, and the
       // average is published two stillness windows (1.2 s) after that.
       if (s.t_us >= SimRig::at_sim_s(3.6) && s.t_us < SimRig::at_sim_s(kGoS)) {
         still_throughout = still_throughout && tracker.still();
         sigma_m = std::max(sigma_m, tracker.position_sigma_m());
-        add(averaged, (tracker.position_m() - truth.translation()).head<2>().norm(),
-            std::abs(std::remainder(tracker.yaw_rad() - truth_yaw, 2.0 * std::numbers::pi)) * kRadToDeg);
-        add(fitted, (single.position_m() - truth.translation()).head<2>().norm(),
-            std::abs(std::remainder(single.yaw_rad() - truth_yaw, 2.0 * std::numbers::pi)) * kRadToDeg);
+        averaged.add((tracker.position_m() - truth.translation()).head<2>().norm(), yaw_error_deg(tracker, truth));
+        fitted.add((single.position_m() - truth.translation()).head<2>().norm(), yaw_error_deg(single, truth));
       }
       if (s.t_us >= SimRig::at_sim_s(kGoS) && seen_us < 0 && !tracker.still()) seen_us = s.t_us;
     };
