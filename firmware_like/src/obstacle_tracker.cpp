@@ -93,7 +93,14 @@ bool ObstacleTracker::update(const hal::SensorSnapshot& snapshot, std::int64_t n
   // The newest fit, not the still average: a motion that has just begun is in the fixes before the
   // stillness test sees it, and must not be gated out for it.
   const Eigen::Isometry3d predicted = Eigen::Translation3d(fit_position_m_) * Eigen::AngleAxisd(fit_yaw_rad_, Eigen::Vector3d::UnitZ());
-  const double allowance = config_.max_speed_m_s * static_cast<double>(now_us - last_update_us_) * 1e-6;
+  // Each tag's allowance runs from its own last accepted fix, not from the last update: a fit that
+  // other tags keep alive can drift from a tag it keeps rejecting (a crane's yaw held by the one
+  // tag near its slewing axis while the jib-tip tag is gated out), and the growing allowance takes
+  // that tag back in and with it the true pose.
+  const auto allowance = [&](std::size_t k) {
+    const std::int64_t since_us = latest_[k].have ? std::min(latest_[k].t_us, last_update_us_) : last_update_us_;
+    return config_.max_speed_m_s * static_cast<double>(now_us - since_us) * 1e-6;
+  };
   if (!tracking) restart_still();
   bool fresh = false;
   double fresh_inv_var = 0.0;
@@ -102,7 +109,7 @@ bool ObstacleTracker::update(const hal::SensorSnapshot& snapshot, std::int64_t n
     if (r == nullptr || !r->updated || !r->valid) continue;
     const double sigma = std::isfinite(r->sigma_m) && r->sigma_m > 0.0 ? r->sigma_m : config_.unknown_sigma_m;
     const Eigen::Vector3d world(r->position_m[0], r->position_m[1], r->position_m[2]);
-    if (tracking && (world - predicted * local_m_[k]).norm() > gate(sigma, allowance)) {
+    if (tracking && (world - predicted * local_m_[k]).norm() > gate(sigma, allowance(k))) {
       ++counters_.outliers;
       continue;
     }
