@@ -448,7 +448,7 @@ void Controller::run_safety() noexcept {
 void Controller::predict_approach() noexcept {
   bool any_moving = false;
   for (const PoseHistory& h : histories_) any_moving = any_moving || obstacle_moving(h);
-  if (!at_rest_ || !joints_valid_ || !any_moving) {
+  if (!joints_valid_ || !any_moving) {
     approach_step_ = 0;
     approach_s_ = std::numeric_limits<double>::infinity();
     approach_obstacle_ = -1;
@@ -456,7 +456,9 @@ void Controller::predict_approach() noexcept {
   }
   // Scan the horizon one predicted pose a cycle: the moving obstacles carried forward at their
   // tracked velocity and slew rate (a slewing crane turns about its mast, its frame's origin),
-  // the machine where it stands. The tracked poses are put back at once for the next stop check.
+  // the machine where it stands or, moving, where it comes to rest if it stops now: an intruder
+  // that will cross that place reaches a stopped machine, and the operator needs the warning
+  // while the machine still moves. The tracked poses are put back at once for the next stop check.
   const double tau_s = ++approach_step_ * config_.approach_step_s;
   // Between two steps an obstacle moves on: one that comes within the margin at some instant
   // (after the first half step) is within the margin plus half a step's travel at the nearer step.
@@ -471,8 +473,10 @@ void Controller::predict_approach() noexcept {
     safety_world_->set_dynamic_pose(h.obstacle, predicted);
   }
   const double margin_m = config_.stop_check.stop_margin_m + 0.5 * step_travel_m;
+  const bool braked = !at_rest_ && check_.status != guidance::StopCheckStatus::ErrorInput && check_.stop_position.size() == n_;
   const planning::Clearance near =
-      safety_world_->nearest_below(q_wrapped_, planning::CollisionWorld::Bodies::All, 0.0, margin_m).dynamic_obstacle;
+      safety_world_->nearest_below(braked ? check_.stop_position : q_wrapped_, planning::CollisionWorld::Bodies::All, 0.0, margin_m)
+          .dynamic_obstacle;
   for (std::size_t t = 0; t < trackers_.size(); ++t) {
     if (obstacle_moving(histories_[t])) safety_world_->set_dynamic_pose(histories_[t].obstacle, trackers_[t].pose());
   }
