@@ -76,6 +76,9 @@ constexpr int kWorkerTag = 71;
 
 //! True motion below this is rest: the controller's own rest speed. [rad/s | m/s]
 constexpr double kRestSpeed = 0.005;
+//! The approach warning's target lead before an intruder sweeps into the machine at rest. [s]
+constexpr double kApproachLeadS = 4.0;
+
 //! The machine at rest after a fault: every joint below this. [rad/s | m/s]
 constexpr double kStillSpeed = 1e-4;
 //! A joint counts as moving in the twin's timeline above this share of its speed limit. [-]
@@ -224,6 +227,14 @@ struct FaultFinding {
   bool detected = false;
 };
 
+//! How long the obstacle has been moving without a pause at t_s, to 0.05 s. [s]
+double moving_for_s(const planning::DynamicObstacleSpec& d, double t_s) {
+  constexpr double kStepS = 0.05;
+  double since_s = t_s;
+  while (since_s > 0.0 && d.moves_between(std::max(0.0, since_s - kStepS), since_s)) since_s -= kStepS;
+  return t_s - std::max(0.0, since_s);
+}
+
 LiftRun run_lift(const RunSetup& setup, FaultFinding* finding) {
   const auto wall0 = std::chrono::steady_clock::now();
   const planning::Scenario& scenario = *setup.scenario;
@@ -346,6 +357,7 @@ LiftRun run_lift(const RunSetup& setup, FaultFinding* finding) {
           const planning::DynamicObstacleSpec& d = scenario.dynamic_obstacles[static_cast<std::size_t>(other)];
           r.contact_with = "dynamic " + d.obstacle.name;
           r.contact_intruder_moving = d.moves_between(std::max(0.0, t - 0.1), t);
+          if (r.contact_intruder_moving) r.intruder_moving_for_s = moving_for_s(d, t);
         } else if (other >= 0 && static_cast<std::size_t>(other) < scenario.obstacles.size()) {
           r.contact_with = "static " + scenario.obstacles[static_cast<std::size_t>(other)].name;
         } else {
@@ -413,6 +425,7 @@ std::string run_text(const LiftRun& r) {
   if (!std::isnan(r.contact_s)) {
     t += fmt("\n    CONTACT at %.2f s with %s, machine %s, obstacle %s, approach warning lead %.2f s", r.contact_s, r.contact_with.c_str(),
              r.contact_machine_at_rest ? "at rest" : "moving", r.contact_intruder_moving ? "moving" : "standing", r.approach_lead_s);
+    if (r.contact_intruder_moving) t += fmt(" (the obstacle moving for %.2f s)", r.intruder_moving_for_s);
   }
   if (!std::isnan(r.rest_after_fault_s)) t += fmt("\n    true machine at rest %.2f s after the fault", r.rest_after_fault_s);
   t += "\n    transitions: " + r.transitions;
@@ -745,14 +758,15 @@ std::string csv_row(const LiftRecord& rec) {
   std::string reasons;
   for (const auto& e : rec.expected_reasons) reasons += (reasons.empty() ? "" : "|") + e;
   return fmt("%d,%llu,%s,%s,%s,%s,%.3f,%s,%.3f,%d,%.3f,%d,%s,%s,%.3f,%.3f,%.3f,%d,%d,%d,%s,%d,%.3f,%.4f,%.4f,%.4f,%.4f,%llu,%llu,%.3f,%s,%d,%d,%.3f,%.3f,"
-             "%d,%.3f,%d,%d,%s\n",
+             "%.3f,%d,%.3f,%d,%d,%s\n",
              rec.index, static_cast<unsigned long long>(rec.seed), rec.site.c_str(), to_string(rec.disturbance), csv_text(rec.what).c_str(),
              csv_text(rec.fault_text).c_str(), rec.fault_s, reasons.c_str(), rec.detect_budget_s, rec.detected ? 1 : 0, rec.detect_s,
              r.completed ? 1 : 0, r.state.c_str(), r.reason.c_str(), r.end_s, r.lift_s, w.lift_s, r.stops, r.safety_stops, r.replans,
              r.first_stop_reason.empty() ? "" : r.first_stop_reason.c_str(), r.approach_warnings, r.first_stop_s, r.least_clearance_m,
              r.least_dynamic_m, r.least_ground_m, r.peak_chart, static_cast<unsigned long long>(r.samples_chart_exceeded),
              static_cast<unsigned long long>(r.samples_below_ground), r.contact_s, csv_text(r.contact_with).c_str(),
-             r.contact_machine_at_rest ? 1 : 0, r.contact_intruder_moving ? 1 : 0, r.approach_lead_s, r.rest_after_fault_s, w.completed ? 1 : 0,
+             r.contact_machine_at_rest ? 1 : 0, r.contact_intruder_moving ? 1 : 0, r.approach_lead_s, r.intruder_moving_for_s, r.rest_after_fault_s,
+             w.completed ? 1 : 0,
              w.end_s, w.stops, w.safety_stops, csv_text(r.transitions).c_str());
 }
 
@@ -760,7 +774,7 @@ constexpr const char* kCsvHeader =
     "lift,seed,site,disturbance,what,fault,fault_s,expected_reasons,detect_budget_s,detected,detect_s,completed,state,reason,end_s,"
     "lift_s,twin_lift_s,stops,safety_stops,repairs,first_stop_reason,approach_warnings,first_stop_s,least_clearance_m,least_dynamic_m,"
     "least_load_above_ground_m,peak_chart_utilisation,samples_over_chart,samples_below_ground,contact_s,contact_with,contact_machine_at_rest,"
-    "contact_intruder_moving,approach_lead_s,rest_after_fault_s,twin_completed,twin_end_s,twin_stops,twin_safety_stops,transitions\n";
+    "contact_intruder_moving,approach_lead_s,intruder_moving_for_s,rest_after_fault_s,twin_completed,twin_end_s,twin_stops,twin_safety_stops,transitions\n";
 
 //! "3, 17, 240" (at most `most`, then "…").
 std::string lift_list(const std::vector<int>& lifts, std::size_t most = 30) {
@@ -788,7 +802,8 @@ int run_campaign_suite(const CampaignOptions& options) {
     // Tallies, each with the lifts behind it so that any one replays with --lift N.
     std::vector<int> contact_bad, contact_apart, contact_moving, not_completed_contact, not_injected, lead_short, chart_over, below_ground, not_completed, false_stops, twin_incomplete,
         missed, late;
-    std::vector<double> ratios_disturbed, ratios_all, leads;
+    std::vector<double> ratios_disturbed, ratios_all, leads, sudden_leads;
+    std::vector<int> sudden;
     int judged_completion = 0, completed = 0, faults_judged = 0, faults_found = 0;
     std::map<std::string, std::vector<double>> detect_by_kind;
     std::map<std::string, double> budget_by_kind;
@@ -811,8 +826,15 @@ int run_campaign_suite(const CampaignOptions& options) {
           if (run->contact_intruder_moving && run->contact_machine_at_rest) {
             if (contact_apart.empty() || contact_apart.back() != rec.index) {
               contact_apart.push_back(rec.index);
-              leads.push_back(run->approach_lead_s);
-              if (!(run->approach_lead_s >= 4.0)) lead_short.push_back(rec.index);
+              // No warning can come before the intruder starts to move: one that set off less than
+              // the lead before the contact is listed with its lead, not judged by the target.
+              if (run->intruder_moving_for_s >= kApproachLeadS) {
+                leads.push_back(run->approach_lead_s);
+                if (!(run->approach_lead_s >= kApproachLeadS)) lead_short.push_back(rec.index);
+              } else {
+                sudden.push_back(rec.index);
+                sudden_leads.push_back(std::isnan(run->approach_lead_s) ? 0.0 : run->approach_lead_s);
+              }
             }
           } else if (run->contact_intruder_moving) {
             if (contact_moving.empty() || contact_moving.back() != rec.index) contact_moving.push_back(rec.index);
@@ -892,11 +914,15 @@ int run_campaign_suite(const CampaignOptions& options) {
               lift_list(chart_over).c_str(), peak_chart, met(chart_over.empty()));
     md += fmt("| 0 loads below ground in the true state | %zu (lifts %s); least load above ground %.3f m | %s |\n", below_ground.size(),
               lift_list(below_ground).c_str(), min_ground, met(below_ground.empty()));
-    md += fmt("| an uncooperative intruder sweeping into the machine at rest (counted apart): the approach warning >= 4 s before | %zu "
-              "contacts (lifts %s), lead %s; under 4 s or none: %s | %s |\n",
-              contact_apart.size(), lift_list(contact_apart).c_str(),
+    md += fmt("| an uncooperative intruder sweeping into the machine at rest (counted apart): the approach warning >= 4 s before, where "
+              "the intruder had been moving for 4 s | %zu contacts (lifts %s); of them %zu moving for 4 s, lead %s; under 4 s or none: %s; "
+              "moving for less (no 4 s warning possible): %s, lead %s | %s |\n",
+              contact_apart.size(), lift_list(contact_apart).c_str(), leads.size(),
               leads.empty() ? "–" : fmt("min %.2f s, median %.2f s", *std::min_element(leads.begin(), leads.end()), percentile(leads, 0.5)).c_str(),
-              lift_list(lead_short).c_str(), met(lead_short.empty()));
+              lift_list(lead_short).c_str(), lift_list(sudden).c_str(),
+              sudden_leads.empty() ? "–" : fmt("min %.2f s, max %.2f s", *std::min_element(sudden_leads.begin(), sudden_leads.end()),
+                                                *std::max_element(sudden_leads.begin(), sudden_leads.end())).c_str(),
+              met(lead_short.empty()));
     md += fmt("| (no target) an uncooperative intruder moving into the machine while it moves or stops | %zu (lifts %s) | listed |\n",
               contact_moving.size(), lift_list(contact_moving).c_str());
     md += fmt("| >= 95 %% of lifts completed (lifts without a fault that must stop them: %d) | %.1f %% (%d); not completed: %s; of them "

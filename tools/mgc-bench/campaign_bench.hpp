@@ -67,6 +67,9 @@ struct LiftRun {
   //! The approach warning's lead before that contact: contact time - since when it had been on
   //! (gaps under 1 s bridged); NaN when it was not on within the second before. [s]
   double approach_lead_s = std::numeric_limits<double>::quiet_NaN();
+  //! How long the intruder had been moving without a pause at that contact: no warning can come
+  //! earlier than its start of motion. NaN for a contact with a standing obstacle. [s]
+  double intruder_moving_for_s = std::numeric_limits<double>::quiet_NaN();
   //! From the injected fault to the true machine at rest (every joint under 1e-4 rad/s or m/s). [s]
   double rest_after_fault_s = std::numeric_limits<double>::quiet_NaN();
   std::string transitions;           //!< "t s STATE (Reason value); ..."
