@@ -9,6 +9,8 @@
 #include <mgc/machine_state_t.hpp>
 #include <mgc/operator_command_t.hpp>
 #include <mgc/operator_instruction_t.hpp>
+#include <mgc/site_plan_t.hpp>
+#include <mgc/site_state_t.hpp>
 
 #include <cstdint>
 #include <cstdio>
@@ -19,6 +21,7 @@
 #include <vector>
 
 #include "fuzz_support.hpp"
+#include "site_fuzz.hpp"
 #include "mgc/hal/bus_plan.hpp"
 #include "mgc/hal/cannelloni.hpp"
 #include "mgc/hal/canopen.hpp"
@@ -204,6 +207,51 @@ void lcm_seeds() {
   write_seed("fuzz_lcm_messages", "command-status", encode(status, {3}));
 }
 
+// fuzz_site_messages: the first byte picks type and mode (0 state as received, 1 state signed by
+// the target, 2 plan as received, 3 plan signed by the target).
+void site_seeds() {
+  namespace site = mgc::fuzz::site;
+  mgc::site_state_t state{};
+  state.utime = 7;
+  state.machine_id = site::kOther;
+  state.priority = 2;
+  state.supervisor_state = mgc::machine_state_t::SUPERVISOR_EXECUTING;
+  state.num_joints = 3;
+  const double position[3] = {0.4, 20.0, 12.0};
+  const double velocity[3] = {0.05, 0.3, -0.5};
+  for (int j = 0; j < 3; ++j) {
+    state.joint_position[j] = position[j];
+    state.joint_velocity[j] = velocity[j];
+    state.stop_travel[j] = 0.5 * velocity[j];
+  }
+  state.time_to_rest_s = 1.2;
+  state.plan_id = 3;
+  state.plan_time_s = 14.5;
+  state.sequence = 41;
+  state.sender_time_us = site::kNowUs - 20'000;
+  mgc::firmware::sign_site_state(state, site::site_key());
+  write_seed("fuzz_site_messages", "state-as-received", encode(state, {0}));
+  write_seed("fuzz_site_messages", "state-to-sign", encode(state, {1}));
+  mgc::site_plan_t plan{};
+  plan.utime = 8;
+  plan.machine_id = site::kOther;
+  plan.plan_id = 3;
+  plan.num_joints = 3;
+  plan.num_waypoints = 3;
+  for (int w = 0; w < 3; ++w) {
+    plan.waypoint_time_s[w] = 6.0 * w;
+    plan.positions[w][0] = 0.4 + 0.3 * w;
+    plan.positions[w][1] = 20.0 - 4.0 * w;
+    plan.positions[w][2] = 12.0;
+  }
+  plan.ends_at_goal = true;
+  plan.sequence = 5;
+  plan.sender_time_us = site::kNowUs - 30'000;
+  mgc::firmware::sign_site_plan(plan, site::site_key());
+  write_seed("fuzz_site_messages", "plan-as-received", encode(plan, {2}));
+  write_seed("fuzz_site_messages", "plan-to-sign", encode(plan, {3}));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -218,6 +266,7 @@ int main(int argc, char** argv) {
     cannelloni_seeds();
     command_seeds();
     lcm_seeds();
+    site_seeds();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "mgc_fuzz_seeds: %s\n", e.what());
     return 1;
