@@ -102,6 +102,18 @@ std::vector<guidance::MachineTag> machine_tag_list(const planning::Scenario& s, 
   return tags;
 }
 
+//! The joint whose link carries the bus plan's inclinometer; -1 when the machine's plan has none
+//! (or the machine has no plan).
+int inclinometer_joint(const planning::Scenario& s) {
+  std::vector<std::string> names;
+  for (const planning::JointSpec& j : s.machine.joints) names.push_back(j.name);
+  try {
+    return hal::bus_plan_for(planning::to_string(s.machine.kind), names).inclinometer_joint;
+  } catch (const std::invalid_argument&) {
+    return -1;
+  }
+}
+
 RateLimiter make_limiter(const planning::MachineModel& model) {
   const auto limits = rate_limits_from(model.joints(), JerkLimit::Off);
   return RateLimiter(std::span<const RateLimits>(limits.data(), static_cast<std::size_t>(model.dof())));
@@ -202,6 +214,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       supervisor_(supervisor_config(config.supervisor, scenario_)),
       monitor_(plausibility_joints(*model_), config.plausibility),
       tag_check_(*model_, machine_tag_list(scenario_, *model_), config.machine_tags),
+      inclinometer_check_(inclinometer_joint(scenario_), config.inclinometer),
       limiter_(make_limiter(*model_)),
       n_(model_->dof()) {
   if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
@@ -763,6 +776,32 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
     finding = guidance::PlausibilityFault::PoseDisagrees;
     finding_index = pose.tag_id;
   }
+  // The boom inclinometer against the boom's encoder: a second source of the boom's angle.
+  guidance::InclinometerInputs angle_in;
+  angle_in.now_us = now_us_;
+  const int angle_joint = inclinometer_check_.result().joint;
+  if (angle_joint >= 0 && s.inclinometer_joint == angle_joint) {
+    const hal::JointReading& e = s.joints[static_cast<std::size_t>(angle_joint)];
+    angle_in.encoder_valid = e.valid;
+    angle_in.encoder_updated = e.updated;
+    angle_in.encoder_rad = e.position;
+    angle_in.angle_valid = s.inclinometer_angle.valid;
+    angle_in.angle_updated = s.inclinometer_angle.updated;
+    angle_in.angle_rad = s.inclinometer_angle.position;
+  }
+  const guidance::InclinometerResult& angle = inclinometer_check_.update(angle_in);
+  stats_.inclinometer_judged = inclinometer_check_.judged();
+  stats_.inclinometer_peak_ratio = std::max(stats_.inclinometer_peak_ratio, inclinometer_check_.peak_ratio());
+  if (angle_joint >= 0 && s.inclinometer_joint >= 0 && !s.inclinometer_angle.valid) ++stats_.inclinometer_unavailable_cycles;
+  if (finding == guidance::PlausibilityFault::None && angle.disagrees) {
+    finding = guidance::PlausibilityFault::AngleDisagrees;
+    finding_index = angle.joint;
+    if (stats_.plausibility_fault == guidance::PlausibilityFault::None) {
+      stats_.plausibility_fault = finding;
+      stats_.plausibility_joint = angle.joint;
+      stats_.plausibility_detected_us = angle.detected_us;
+    }
+  }
   if (finding == guidance::PlausibilityFault::PoseDisagrees && stats_.plausibility_fault == guidance::PlausibilityFault::None) {
     stats_.plausibility_fault = finding;
     stats_.plausibility_joint = pose.tag_id;
@@ -874,6 +913,7 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
   if (out.reset_latches) {
     monitor_.reset();
     tag_check_.reset();
+    inclinometer_check_.reset();
   }
   const bool pilot = out.state != guidance::SupervisorState::Fault && !monitor_.result().cut_required;
   if (pilot_enabled_ && !pilot) ++stats_.pilot_cuts;

@@ -26,6 +26,7 @@ const char* to_string(PlausibilityFault fault) noexcept {
     case PlausibilityFault::JointRunaway: return "JointRunaway";
     case PlausibilityFault::ValveNotObeying: return "ValveNotObeying";
     case PlausibilityFault::PoseDisagrees: return "PoseDisagrees";
+    case PlausibilityFault::AngleDisagrees: return "AngleDisagrees";
   }
   return "unknown";
 }
@@ -294,6 +295,90 @@ const PlausibilityResult& PlausibilityMonitor::update(const PlausibilityInputs& 
   }
   if (push) last_push_us_ = in.now_us;
   check_valve(in, dt_s);
+  return result_;
+}
+
+InclinometerCheck::InclinometerCheck(int joint, const InclinometerCheckConfig& config) : config_(config) {
+  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  if (!positive(config.noise_sigma_rad) || !positive(config.sigma_factor) || !(config.accuracy_rad >= 0.0) ||
+      !std::isfinite(config.offset_rad) || !positive(config.filter_s) || !(config.timing_tolerance_s >= 0.0) ||
+      config.average_samples < 1 || config.average_samples > kMaxAverage || joint >= static_cast<int>(kMaxJoints)) {
+    throw std::invalid_argument("InclinometerCheck: noise, sigma factor and filter must be > 0, accuracy and timing tolerance >= 0, "
+                                "average_samples 1.." + std::to_string(kMaxAverage) + ", the joint below " + std::to_string(kMaxJoints));
+  }
+  result_.joint = joint < 0 ? -1 : joint;
+}
+
+void InclinometerCheck::restart() noexcept {
+  have_encoder_ = false;
+  encoder_fresh_ = false;
+  angle_fresh_ = false;
+  count_ = 0;
+  head_ = 0;
+  speed_rad_s_ = 0.0;
+}
+
+void InclinometerCheck::reset() noexcept {
+  const int joint = result_.joint;
+  result_ = {};
+  result_.joint = joint;
+  restart();
+  judging_ = false;
+  judged_ = 0;
+  peak_ratio_ = 0.0;
+}
+
+const InclinometerResult& InclinometerCheck::update(const InclinometerInputs& in) noexcept {
+  judging_ = false;
+  if (result_.joint < 0 || result_.disagrees) return result_;
+  if (!in.encoder_valid || !in.angle_valid || !std::isfinite(in.encoder_rad) || !std::isfinite(in.angle_rad)) {
+    // Nothing to compare, and the history must not bridge the gap.
+    restart();
+    return result_;
+  }
+  if (in.encoder_updated || !have_encoder_) {
+    if (!have_encoder_) {
+      // The sensor's filter has long settled on a joint that stood or moved smoothly: start it here.
+      have_encoder_ = true;
+      predicted_rad_ = in.encoder_rad;
+      speed_rad_s_ = 0.0;
+    } else {
+      const double dt_s = static_cast<double>(std::max<std::int64_t>(in.now_us - last_encoder_us_, 1)) * 1e-6;
+      predicted_rad_ += (in.encoder_rad - predicted_rad_) * (1.0 - std::exp(-dt_s / config_.filter_s));
+      const double speed = std::abs(in.encoder_rad - last_encoder_rad_) / dt_s;
+      // The larger of this step's and the last one's: the allowance must not drop for one quiet sample.
+      speed_rad_s_ = std::max(speed, 0.5 * speed_rad_s_);
+    }
+    last_encoder_rad_ = in.encoder_rad;
+    last_encoder_us_ = in.now_us;
+    encoder_fresh_ = true;
+  }
+  if (in.angle_updated) {
+    angle_rad_ = in.angle_rad;
+    angle_fresh_ = true;
+  }
+  // A pair: both sources have answered since the last one (the same SYNC, or one period apart).
+  if (!(encoder_fresh_ && angle_fresh_)) return result_;
+  encoder_fresh_ = false;
+  angle_fresh_ = false;
+  residuals_[static_cast<std::size_t>(head_)] = angle_rad_ - config_.offset_rad - predicted_rad_;
+  head_ = (head_ + 1) % config_.average_samples;
+  count_ = std::min(count_ + 1, config_.average_samples);
+  if (count_ < config_.average_samples) return result_;
+  double mean = 0.0;
+  for (int k = 0; k < count_; ++k) mean += residuals_[static_cast<std::size_t>(k)];
+  mean /= static_cast<double>(count_);
+  const double threshold = config_.sigma_factor * config_.noise_sigma_rad / std::sqrt(static_cast<double>(count_)) +
+                           config_.accuracy_rad + config_.timing_tolerance_s * speed_rad_s_;
+  judging_ = true;
+  ++judged_;
+  peak_ratio_ = std::max(peak_ratio_, std::abs(mean) / threshold);
+  if (std::abs(mean) > threshold) {
+    result_.disagrees = true;
+    result_.detected_us = in.now_us;
+    result_.residual_rad = mean;
+    result_.threshold_rad = threshold;
+  }
   return result_;
 }
 

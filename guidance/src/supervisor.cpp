@@ -45,7 +45,8 @@ const char* device_text(TransitionReason reason) noexcept {
     case TransitionReason::EncoderStuck:
     case TransitionReason::EncoderImplausible:
     case TransitionReason::JointNotFollowing:
-    case TransitionReason::JointRunaway: return "joint";
+    case TransitionReason::JointRunaway:
+    case TransitionReason::AngleDisagrees: return "joint";
     case TransitionReason::CutoffLost:
     case TransitionReason::CutoffFailed:
     case TransitionReason::CutoffNotReady: return "cut-off";
@@ -110,6 +111,7 @@ TransitionReason plausibility_reason(PlausibilityFault fault) noexcept {
     case PlausibilityFault::JointRunaway: return TransitionReason::JointRunaway;
     case PlausibilityFault::ValveNotObeying: return TransitionReason::ValveNotObeying;
     case PlausibilityFault::PoseDisagrees: return TransitionReason::PoseDisagrees;
+    case PlausibilityFault::AngleDisagrees: return TransitionReason::AngleDisagrees;
   }
   return TransitionReason::None;
 }
@@ -185,6 +187,7 @@ const char* to_string(TransitionReason reason) noexcept {
     case TransitionReason::CutoffFailed: return "CutoffFailed";
     case TransitionReason::CutoffNotReady: return "CutoffNotReady";
     case TransitionReason::PoseDisagrees: return "PoseDisagrees";
+    case TransitionReason::AngleDisagrees: return "AngleDisagrees";
   }
   return "unknown";
 }

@@ -23,11 +23,19 @@ BusPlan make_plan(const char* machine, std::initializer_list<std::pair<const cha
 
 }  // namespace
 
+//! A boom inclinometer on joint j's link, as load moment limiters carry one.
+BusPlan with_inclinometer(BusPlan plan, std::int8_t joint) noexcept {
+  plan.inclinometer_node_id = kInclinometerNodeId;
+  plan.inclinometer_joint = joint;
+  return plan;
+}
+
 BusPlan mobile_crane_bus_plan() noexcept {
-  return make_plan("mobile_crane", {{"swing", EncoderKind::Rotary},
-                                    {"boom_elevation", EncoderKind::Rotary},
-                                    {"boom_length", EncoderKind::Linear},
-                                    {"cable_length", EncoderKind::Linear}});
+  return with_inclinometer(make_plan("mobile_crane", {{"swing", EncoderKind::Rotary},
+                                                      {"boom_elevation", EncoderKind::Rotary},
+                                                      {"boom_length", EncoderKind::Linear},
+                                                      {"cable_length", EncoderKind::Linear}}),
+                           1);
 }
 
 BusPlan tower_crane_bus_plan() noexcept {
@@ -37,10 +45,11 @@ BusPlan tower_crane_bus_plan() noexcept {
 }
 
 BusPlan excavator_bus_plan() noexcept {
-  return make_plan("excavator", {{"swing", EncoderKind::Rotary},
-                                 {"boom", EncoderKind::Rotary},
-                                 {"arm", EncoderKind::Rotary},
-                                 {"bucket", EncoderKind::Rotary}});
+  return with_inclinometer(make_plan("excavator", {{"swing", EncoderKind::Rotary},
+                                                   {"boom", EncoderKind::Rotary},
+                                                   {"arm", EncoderKind::Rotary},
+                                                   {"bucket", EncoderKind::Rotary}}),
+                           1);
 }
 
 const char* to_string(MessageKind kind) noexcept {
@@ -51,6 +60,7 @@ const char* to_string(MessageKind kind) noexcept {
     case MessageKind::Emcy: return "emcy";
     case MessageKind::Heartbeat: return "heartbeat";
     case MessageKind::EncoderPosition: return "encoder position";
+    case MessageKind::InclinometerAngle: return "inclinometer angle";
     case MessageKind::UwbTagPosition: return "uwb tag position";
     case MessageKind::ValveCommand: return "valve command";
     case MessageKind::ValveStatus: return "valve status";
@@ -65,7 +75,7 @@ namespace {
 
 bool in_plan(const BusPlan& plan, std::uint8_t node) noexcept {
   if (node == plan.controller_node_id || node == plan.uwb_gateway_node_id || node == plan.valve_node_id ||
-      node == plan.cutoff_node_id) {
+      node == plan.cutoff_node_id || (plan.inclinometer_node_id != 0 && node == plan.inclinometer_node_id)) {
     return true;
   }
   for (std::size_t j = 0; j < plan.num_joints; ++j) {
@@ -105,6 +115,7 @@ Classified classify(const CanFrame& frame, const BusPlan& plan) noexcept {
   }
   if (code != FunctionCode::Tpdo1) return {};
   if (node == plan.uwb_gateway_node_id) return {MessageKind::UwbTagPosition, node, -1};
+  if (node == plan.inclinometer_node_id) return {MessageKind::InclinometerAngle, node, plan.inclinometer_joint};
   for (std::size_t j = 0; j < plan.num_joints; ++j) {
     if (plan.encoders[j].node_id == node) return {MessageKind::EncoderPosition, node, static_cast<std::int8_t>(j)};
   }

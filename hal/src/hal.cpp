@@ -34,6 +34,13 @@ Hal::Hal(CanBus& bus, const BusPlan& plan, std::span<const double> max_velocity)
     snap_.encoders[j].node_id = plan.encoders[j].node_id;
   }
   snap_.num_joints = plan.num_joints;
+  if (plan.inclinometer_node_id != 0) {
+    if (plan.inclinometer_joint < 0 || static_cast<std::size_t>(plan.inclinometer_joint) >= plan.num_joints) {
+      throw std::invalid_argument("Hal: the bus plan's inclinometer names no joint of the plan");
+    }
+    snap_.inclinometer_joint = plan.inclinometer_joint;
+    snap_.inclinometer.node_id = plan.inclinometer_node_id;
+  }
   snap_.uwb_gateway.node_id = plan.uwb_gateway_node_id;
   snap_.valve.node_id = plan.valve_node_id;
   snap_.valve_status.node_id = plan.valve_node_id;
@@ -57,6 +64,7 @@ DeviceStatus* Hal::device(std::uint8_t node_id) noexcept {
   if (node_id == plan_.uwb_gateway_node_id) return &snap_.uwb_gateway;
   if (node_id == plan_.valve_node_id) return &snap_.valve;
   if (node_id == plan_.cutoff_node_id) return &snap_.cutoff;
+  if (plan_.inclinometer_node_id != 0 && node_id == plan_.inclinometer_node_id) return &snap_.inclinometer;
   for (std::size_t j = 0; j < plan_.num_joints; ++j) {
     if (plan_.encoders[j].node_id == node_id) return &snap_.encoders[j];
   }
@@ -74,6 +82,7 @@ const SensorSnapshot& Hal::read(std::int64_t now_us) noexcept {
   }
 
   for (std::size_t j = 0; j < snap_.num_joints; ++j) snap_.joints[j].updated = false;
+  snap_.inclinometer_angle.updated = false;
   for (std::size_t i = 0; i < snap_.num_tags; ++i) snap_.tags[i].updated = false;
   snap_.rx_lost = false;
   snap_.rx_backlog = false;
@@ -134,6 +143,18 @@ void Hal::handle(const TimedFrame& timed) noexcept {
       joint.t_us = timed.t_us;
       joint.updated = true;
       ++joint.samples;
+      return;
+    }
+    case MessageKind::InclinometerAngle: {
+      const auto pos = pdo::decode_encoder_position(f);
+      snap_.codec.record(pos.status);
+      if (!pos.ok()) return;
+      JointReading& angle = snap_.inclinometer_angle;
+      angle.position = pdo::counts_to_si(pos.value.position_counts, pdo::EncoderKind::Rotary);
+      angle.status = pos.value.status;
+      angle.t_us = timed.t_us;
+      angle.updated = true;
+      ++angle.samples;
       return;
     }
     case MessageKind::UwbTagPosition: {
@@ -259,6 +280,22 @@ void Hal::update_health(std::int64_t now_us, std::int64_t data_age_ref_us) noexc
       joint.health = Health::Alive;
     }
     joint.valid = joint.health == Health::Alive;
+  }
+  if (plan_.inclinometer_node_id != 0) {
+    // The same rules as an encoder's: it answers every SYNC.
+    DeviceStatus& dev = snap_.inclinometer;
+    node_health(dev);
+    JointReading& angle = snap_.inclinometer_angle;
+    if (dev.health != Health::Alive) {
+      angle.health = dev.health;
+    } else if ((angle.status & pdo::kEncoderStatusAlarm) != 0) {
+      angle.health = Health::Faulted;
+    } else if (angle.samples == 0 || data_age_ref_us - angle.t_us > timing.encoder_stale_after_us) {
+      angle.health = Health::Stale;
+    } else {
+      angle.health = Health::Alive;
+    }
+    angle.valid = angle.health == Health::Alive;
   }
 
   node_health(snap_.uwb_gateway);

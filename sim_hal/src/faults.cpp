@@ -20,15 +20,15 @@ struct KindInfo {
 };
 
 constexpr KindInfo kKinds[] = {
-    {FaultKind::EncoderDropout, "encoder-dropout", FaultTarget::Kind::Joint, "JOINT"},
-    {FaultKind::EncoderStuck, "encoder-stuck", FaultTarget::Kind::Joint, "JOINT"},
+    {FaultKind::EncoderDropout, "encoder-dropout", FaultTarget::Kind::Joint, "JOINT | inclinometer"},
+    {FaultKind::EncoderStuck, "encoder-stuck", FaultTarget::Kind::Joint, "JOINT | inclinometer"},
     {FaultKind::TagNoise, "tag-noise", FaultTarget::Kind::Tag, "TAG_ID"},
     {FaultKind::UwbSilent, "uwb-silent", FaultTarget::Kind::None, ""},
     {FaultKind::FrameDelay, "frame-delay", FaultTarget::Kind::None, ""},
     {FaultKind::BusOff, "bus-off", FaultTarget::Kind::None, ""},
-    {FaultKind::HeartbeatLost, "heartbeat-lost", FaultTarget::Kind::Joint, "JOINT | uwb | valve | cutoff"},
+    {FaultKind::HeartbeatLost, "heartbeat-lost", FaultTarget::Kind::Joint, "JOINT | uwb | valve | cutoff | inclinometer"},
     {FaultKind::ValveIgnore, "valve-ignore", FaultTarget::Kind::None, ""},
-    {FaultKind::EncoderOffset, "encoder-offset", FaultTarget::Kind::Joint, "JOINT"},
+    {FaultKind::EncoderOffset, "encoder-offset", FaultTarget::Kind::Joint, "JOINT | inclinometer"},
     {FaultKind::CutoffFail, "cutoff-fail", FaultTarget::Kind::None, ""},
     {FaultKind::JointCreep, "joint-creep", FaultTarget::Kind::Joint, "JOINT"},
 };
@@ -115,6 +115,9 @@ Fault parse_fault_impl(std::string_view text, std::span<const std::string> joint
       fault.target = {FaultTarget::Kind::Valve, -1};
     } else if (fault.kind == FaultKind::HeartbeatLost && target == "cutoff") {
       fault.target = {FaultTarget::Kind::Cutoff, -1};
+    } else if (target == "inclinometer" && (fault.kind == FaultKind::EncoderStuck || fault.kind == FaultKind::EncoderOffset ||
+                                            fault.kind == FaultKind::EncoderDropout || fault.kind == FaultKind::HeartbeatLost)) {
+      fault.target = {FaultTarget::Kind::Inclinometer, -1};
     } else {
       for (std::size_t j = 0; j < joint_names.size(); ++j) {
         if (target == joint_names[j]) fault.target = {FaultTarget::Kind::Joint, static_cast<int>(j)};
@@ -123,7 +126,10 @@ Fault parse_fault_impl(std::string_view text, std::span<const std::string> joint
         std::string names;
         for (const auto& n : joint_names) names += (names.empty() ? "" : ", ") + n;
         fail(text, "unknown target \"" + std::string(target) + "\"; expected one of " + names +
-                       (fault.kind == FaultKind::HeartbeatLost ? ", uwb, valve, cutoff" : ""));
+                       (fault.kind == FaultKind::HeartbeatLost ? ", uwb, valve, cutoff, inclinometer"
+                        : fault.kind == FaultKind::EncoderStuck || fault.kind == FaultKind::EncoderOffset || fault.kind == FaultKind::EncoderDropout
+                            ? ", inclinometer"
+                            : ""));
       }
     }
   }
@@ -154,9 +160,11 @@ Fault parse_fault_impl(std::string_view text, std::span<const std::string> joint
       if (fault.delay_ms > 10'000.0) fail(text, "delay_ms: expected at most 10000, got \"" + std::string(value) + "\"");
     } else if (((key == "offset" || key == "rate") && fault.kind == FaultKind::EncoderOffset) ||
                (key == "rate" && fault.kind == FaultKind::JointCreep)) {
+      // The inclinometer reads degrees.
+      const bool inclinometer = fault.target.kind == FaultTarget::Kind::Inclinometer;
       const std::size_t j = static_cast<std::size_t>(fault.target.index);
-      if (j >= joints.size()) fail(text, std::string(info->name) + " needs the machine's joints to know the unit of its values");
-      const bool revolute = joints[j].type == planning::JointType::Revolute;
+      if (!inclinometer && j >= joints.size()) fail(text, std::string(info->name) + " needs the machine's joints to know the unit of its values");
+      const bool revolute = inclinometer || joints[j].type == planning::JointType::Revolute;
       const double si = parse_signed(text, value, key == "offset" ? "offset" : "rate") * (revolute ? std::numbers::pi / 180.0 : 1.0);
       (key == "offset" ? fault.offset : fault.offset_rate) = si;
     } else {

@@ -63,7 +63,8 @@ Simulator::Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimCo
       config_(std::move(config)),
       plan_(bus_plan_for(scenario)),
       random_(config_.seed),
-      machine_tag_random_(config_.seed ^ 0x6d616368696e65ULL) {
+      machine_tag_random_(config_.seed ^ 0x6d616368696e65ULL),
+      inclinometer_random_(config_.seed ^ 0x696e636c696eULL) {
   if (!(config_.physics_rate_hz >= 100.0 && config_.physics_rate_hz <= 10'000.0)) {
     throw std::invalid_argument("physics rate must be 100..10000 Hz");
   }
@@ -90,6 +91,11 @@ Simulator::Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimCo
   nodes_[num_nodes_++].node_id = plan_.valve_node_id;
   cutoff_node_ = num_nodes_;
   nodes_[num_nodes_++].node_id = plan_.cutoff_node_id;
+  if (plan_.inclinometer_node_id != 0) {
+    inclinometer_node_ = num_nodes_;
+    nodes_[num_nodes_++].node_id = plan_.inclinometer_node_id;
+    inclinometer_filtered_rad_ = actuators_[static_cast<std::size_t>(plan_.inclinometer_joint)].position();
+  }
   tags_ = scenario_tags(scenario);
   if (!scenario.machine_tags.empty()) {
     model_ = planning::build_model(scenario);
@@ -263,6 +269,11 @@ void Simulator::advance_physics(std::int64_t now_us) noexcept {
         actuators_[j].displace(creep->offset_rate * dt_s);
       }
     }
+    if (inclinometer_node_ != 0) {
+      // The link's angle to the horizontal: on a level machine, the joint's angle.
+      const double q = actuators_[static_cast<std::size_t>(plan_.inclinometer_joint)].position();
+      inclinometer_filtered_rad_ += (q - inclinometer_filtered_rad_) * (1.0 - std::exp(-dt_s / config_.inclinometer.filter_s));
+    }
     physics_us_ += physics_step_us_;
   }
 }
@@ -388,6 +399,8 @@ void Simulator::on_sync(std::int64_t now_us) noexcept {
     queue(hal::pdo::encode_encoder_position(pos).value, now_us);
   }
 
+  if (inclinometer_node_ != 0 && nodes_[inclinometer_node_].state == NmtState::Operational) emit_inclinometer(now_us);
+
   const Node& cutoff = nodes_[cutoff_node_];
   if (cutoff.state == NmtState::Operational) {
     queue(hal::pdo::encode_cutoff_status({plan_.cutoff_node_id, cutoff_state_, cutoff_reason_, pilot_pressure()}).value, now_us);
@@ -487,6 +500,25 @@ void Simulator::enter_fail_safe(ValveReason reason, std::int64_t now_us) noexcep
   queue(hal::canopen::encode_emcy(emcy).value, now_us);
 }
 
+void Simulator::emit_inclinometer(std::int64_t now_us) noexcept {
+  constexpr FaultTarget::Kind kTarget = FaultTarget::Kind::Inclinometer;
+  const double noise_rad = config_.inclinometer.noise_sigma_deg * std::numbers::pi / 180.0 * gaussian(inclinometer_random_);
+  const auto counts = hal::pdo::si_to_counts(inclinometer_filtered_rad_ + noise_rad, hal::pdo::EncoderKind::Rotary);
+  const bool stuck_now = fault_active(FaultKind::EncoderStuck, kTarget, -1);
+  if (stuck_now && !inclinometer_stuck_) inclinometer_stuck_counts_ = counts.value;
+  inclinometer_stuck_ = stuck_now;
+  if (fault_active(FaultKind::EncoderDropout, kTarget, -1)) return;
+  hal::pdo::EncoderPosition pos{plan_.inclinometer_node_id, stuck_now ? inclinometer_stuck_counts_ : counts.value, 0};
+  if (!counts.ok()) pos.status = hal::pdo::kEncoderStatusAlarm;
+  if (const Fault* lie = find_fault(FaultKind::EncoderOffset, kTarget, -1); lie != nullptr && !stuck_now) {
+    const double lie_si = lie->offset + lie->offset_rate * (truth_.t_s - lie->start_s);
+    const auto lied = hal::pdo::si_to_counts(inclinometer_filtered_rad_ + noise_rad + lie_si, hal::pdo::EncoderKind::Rotary);
+    pos.position_counts = lied.value;
+    pos.status = lied.ok() ? 0 : hal::pdo::kEncoderStatusAlarm;
+  }
+  queue(hal::pdo::encode_encoder_position(pos).value, now_us);
+}
+
 void Simulator::emit_heartbeats(std::int64_t now_us) noexcept {
   for (std::size_t i = 0; i < num_nodes_; ++i) {
     Node& n = nodes_[i];
@@ -499,6 +531,8 @@ void Simulator::emit_heartbeats(std::int64_t now_us) noexcept {
                           ? fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::UwbGateway, -1)
                       : n.node_id == plan_.valve_node_id
                           ? fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Valve, -1)
+                      : i == inclinometer_node_ && inclinometer_node_ != 0
+                          ? fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Inclinometer, -1)
                           : fault_active(FaultKind::HeartbeatLost, FaultTarget::Kind::Cutoff, -1);
     if (lost) continue;
     queue(hal::canopen::encode_heartbeat({n.node_id, n.state}).value, now_us);

@@ -600,8 +600,11 @@ LiftRecord run_campaign_lift(const CampaignOptions& options, int index) {
       }
       const std::string kind = kinds[static_cast<std::size_t>(u[2] * static_cast<double>(kinds.size())) % kinds.size()];
       const std::string at = fmt("@%.3f", rec.fault_s);
+      // A lying encoder: the monitor's findings, the boom inclinometer's disagreement (on the joint
+      // it measures), or a lie that cancels the joint's motion and so repeats the encoder's value.
       const std::vector<TransitionReason> lie = {TransitionReason::EncoderImplausible, TransitionReason::JointRunaway,
-                                                 TransitionReason::JointNotFollowing};
+                                                 TransitionReason::JointNotFollowing, TransitionReason::AngleDisagrees,
+                                                 TransitionReason::EncoderStuck};
       std::string text;
       if (kind == "encoder-stuck") {
         text = "encoder-stuck:" + spec.name + at;

@@ -121,6 +121,7 @@ struct ControllerConfig {
   guidance::PlausibilityConfig plausibility{};
   //! The machine's own UWB tags against forward kinematics (docs/diagnostics.md "Machine tags").
   guidance::MachineTagCheckConfig machine_tags{};
+  guidance::InclinometerCheckConfig inclinometer{};
 };
 
 //! Operator commands of this cycle, already authenticated (command_auth.hpp).
@@ -170,7 +171,8 @@ struct ControllerStats {
   //! (the approach warning raised; each rise counts once).
   int approach_warnings = 0;
   //! The plausibility monitor's finding (None: none) and when it was seen, or the machine tag
-  //! check's (PoseDisagrees), whichever came first. [µs on the snapshot clock]
+  //! check's (PoseDisagrees) or the inclinometer check's (AngleDisagrees), whichever came first.
+  //! [µs on the snapshot clock]
   guidance::PlausibilityFault plausibility_fault = guidance::PlausibilityFault::None;
   //! The joint it named; -1 for the valve's counter; the tag id for PoseDisagrees.
   int plausibility_joint = -1;
@@ -180,6 +182,12 @@ struct ControllerStats {
   double machine_tag_peak_ratio = 0.0;
   std::uint64_t machine_tag_fixes_judged = 0;  //!< [-]
   std::uint64_t machine_tag_stale_cycles = 0;  //!< cycles with a machine tag stale (alerted, not judged) [-]
+  //! The boom inclinometer against the boom's encoder: pairs judged, the largest mean residual's
+  //! share of its threshold, and cycles in which the bus plan has one but it could not be judged
+  //! (missing, stale or faulted). [-]
+  std::uint64_t inclinometer_judged = 0;
+  double inclinometer_peak_ratio = 0.0;
+  std::uint64_t inclinometer_unavailable_cycles = 0;
   std::int64_t plausibility_detected_us = 0;
   //! Largest share of its threshold any of the monitor's motion checks reached (1 = a fault). [-]
   double plausibility_peak_ratio = 0.0;
@@ -359,6 +367,7 @@ class Controller {
   guidance::Supervisor supervisor_;
   guidance::PlausibilityMonitor monitor_;
   guidance::MachineTagCheck tag_check_;
+  guidance::InclinometerCheck inclinometer_check_;
   std::array<std::uint8_t, planning::kMaxMachineTags> machine_tag_ids_{};
   std::array<guidance::MachineTagFix, planning::kMaxMachineTags> machine_tag_fixes_{};
   //! What the previous cycle commanded (the valve applies it now) and whether it kept pilot pressure.

@@ -26,6 +26,7 @@ enum class PlausibilityFault : std::uint8_t {
   JointRunaway,       //!< the joint moves more than its command allows, or moves while commanded to stop
   ValveNotObeying,    //!< the valve's applied spools or its command counter do not follow the commands
   PoseDisagrees,      //!< a machine tag's fixes disagree with forward kinematics of the encoders (MachineTagCheck)
+  AngleDisagrees,     //!< the boom inclinometer disagrees with the boom's encoder (InclinometerCheck)
 };
 [[nodiscard]] const char* to_string(PlausibilityFault fault) noexcept;
 
@@ -302,6 +303,90 @@ class MachineTagCheck {
   int stale_tag_ = -1;
   std::uint64_t judged_ = 0;
   std::uint64_t not_judged_ = 0;
+  double peak_ratio_ = 0.0;
+};
+
+//! The boom's inclinometer against the boom's encoder (docs/diagnostics.md "Boom inclinometer"):
+//! a second source of the one angle that the closed loop cannot check, because the loop follows
+//! the encoder and any lie in it moves the true boom the other way. Defaults and their reasons in
+//! the doc.
+struct InclinometerCheckConfig {
+  double noise_sigma_rad = 0.02 * 3.14159265358979323846 / 180.0;  //!< the inclinometer's 1-sigma per sample [rad]
+  //! The mean residual of the last average_samples pairs is judged against sigma_factor × the
+  //! mean's 1-sigma plus the allowances. [- | samples]
+  double sigma_factor = 4.0;
+  int average_samples = 5;
+  //! What the two may differ by at rest: the sensor's accuracy, its calibration against the joint
+  //! and the link's deflection at the mount. [rad]
+  double accuracy_rad = 0.05 * 3.14159265358979323846 / 180.0;
+  //! The inclinometer's reading less the joint's angle on a level machine (its calibration). [rad]
+  double offset_rad = 0.0;
+  //! The sensor's output filter (first order, set on the device) and how far the true one may be
+  //! off it, plus the skew between the two samples compared: times the joint's speed. [s]
+  double filter_s = 0.02;
+  double timing_tolerance_s = 0.02;
+};
+
+struct InclinometerInputs {
+  std::int64_t now_us = 0;
+  bool encoder_valid = false;    //!< the joint's encoder sample may be used (JointReading::valid)
+  bool encoder_updated = false;  //!< a new sample this cycle
+  double encoder_rad = 0.0;
+  bool angle_valid = false;      //!< the inclinometer's sample may be used
+  bool angle_updated = false;
+  double angle_rad = 0.0;
+};
+
+struct InclinometerResult {
+  bool disagrees = false;       //!< latched until reset()
+  int joint = -1;               //!< the joint whose link the inclinometer measures
+  std::int64_t detected_us = 0;  //!< [µs]
+  double residual_rad = 0.0;    //!< the disagreeing mean residual [rad]
+  double threshold_rad = 0.0;   //!< and its threshold [rad]
+};
+
+class InclinometerCheck {
+ public:
+  static constexpr int kMaxAverage = 32;
+
+  //! joint: the joint whose link carries the inclinometer (-1: none; update() then does nothing).
+  //! Start-up only: throws std::invalid_argument for a configuration out of range.
+  InclinometerCheck(int joint, const InclinometerCheckConfig& config = {});
+
+  //! One cycle. RT-safe: no allocation, no throw. Returns the latched result.
+  const InclinometerResult& update(const InclinometerInputs& in) noexcept;
+
+  //! Forgets the latched finding and the history: after an operator's acknowledgement.
+  void reset() noexcept;
+
+  [[nodiscard]] bool enabled() const noexcept { return result_.joint >= 0; }
+  [[nodiscard]] const InclinometerResult& result() const noexcept { return result_; }
+  //! Both sources valid and compared within the last cycle. [-]
+  [[nodiscard]] bool judging() const noexcept { return judging_; }
+  //! Pairs judged since reset. [-]
+  [[nodiscard]] std::uint64_t judged() const noexcept { return judged_; }
+  //! Largest |mean residual| / threshold since reset (1 = at the threshold). [-]
+  [[nodiscard]] double peak_ratio() const noexcept { return peak_ratio_; }
+  [[nodiscard]] const InclinometerCheckConfig& config() const noexcept { return config_; }
+
+ private:
+  void restart() noexcept;
+
+  InclinometerCheckConfig config_;
+  InclinometerResult result_{};
+  bool have_encoder_ = false;
+  double predicted_rad_ = 0.0;     //!< the encoder through the sensor's filter [rad]
+  double last_encoder_rad_ = 0.0;
+  std::int64_t last_encoder_us_ = 0;
+  double speed_rad_s_ = 0.0;       //!< the encoder's speed, largest of the last two steps [rad/s]
+  bool encoder_fresh_ = false;     //!< an encoder sample since the last pair judged
+  bool angle_fresh_ = false;
+  double angle_rad_ = 0.0;
+  std::array<double, kMaxAverage> residuals_{};
+  int count_ = 0;
+  int head_ = 0;
+  bool judging_ = false;
+  std::uint64_t judged_ = 0;
   double peak_ratio_ = 0.0;
 };
 

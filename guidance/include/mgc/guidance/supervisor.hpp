@@ -85,6 +85,9 @@ enum class TransitionReason : std::uint8_t {
   //! A tag on the machine disagrees with forward kinematics of the encoders (MachineTagCheck):
   //! one of the encoders it sees is stuck or lies (value: the tag id).
   PoseDisagrees,
+  //! The boom inclinometer disagrees with the boom's encoder (InclinometerCheck): one of the two
+  //! is stuck or lies (value: the joint).
+  AngleDisagrees,
 };
 [[nodiscard]] const char* to_string(TransitionReason reason) noexcept;
 

@@ -23,6 +23,8 @@ inline constexpr std::uint8_t kFirstEncoderNodeId = 0x11;  //!< joint i's encode
 inline constexpr std::uint8_t kUwbGatewayNodeId = 0x20;
 inline constexpr std::uint8_t kValveNodeId = 0x30;
 inline constexpr std::uint8_t kCutoffNodeId = 0x31;  //!< pilot-pressure cut-off: the second shut-off channel
+//! The boom's inclinometer: a second source of the boom's angle, beside its encoder.
+inline constexpr std::uint8_t kInclinometerNodeId = 0x19;
 
 //! One joint's encoder node.
 struct JointEncoder {
@@ -55,14 +57,18 @@ struct BusPlan {
   std::uint8_t uwb_gateway_node_id = kUwbGatewayNodeId;
   std::uint8_t valve_node_id = kValveNodeId;
   std::uint8_t cutoff_node_id = kCutoffNodeId;
+  //! An inclinometer on the link that joint inclinometer_joint raises, reporting the link's angle to
+  //! the horizontal in the rotary encoders' format (docs/protocol.md); 0 / -1: none.
+  std::uint8_t inclinometer_node_id = 0;
+  std::int8_t inclinometer_joint = -1;
   BusTiming timing{};
 };
 
-//! Mobile telescopic crane: swing, boom_elevation, boom_length, cable_length.
+//! Mobile telescopic crane: swing, boom_elevation, boom_length, cable_length; a boom inclinometer.
 [[nodiscard]] BusPlan mobile_crane_bus_plan() noexcept;
 //! Tower crane: slew, trolley_radius, hook_height.
 [[nodiscard]] BusPlan tower_crane_bus_plan() noexcept;
-//! Excavator: swing, boom, arm, bucket.
+//! Excavator: swing, boom, arm, bucket; a boom inclinometer.
 [[nodiscard]] BusPlan excavator_bus_plan() noexcept;
 
 //! The plan of a machine kind as the scenario files name it ("mobile_crane", "tower_crane",
@@ -78,6 +84,7 @@ enum class MessageKind : std::uint8_t {
   Emcy,
   Heartbeat,
   EncoderPosition,
+  InclinometerAngle,
   UwbTagPosition,
   ValveCommand,
   ValveStatus,

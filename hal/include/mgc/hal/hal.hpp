@@ -82,6 +82,11 @@ struct SensorSnapshot {
   std::uint8_t num_joints = 0;
   std::array<JointReading, kMaxBusJoints> joints{};
   std::array<DeviceStatus, kMaxBusJoints> encoders{};
+  //! The boom inclinometer (BusPlan::inclinometer_node_id), when the plan has one: the angle to the
+  //! horizontal of the link that joint inclinometer_joint raises, in the joint's unit [rad].
+  std::int8_t inclinometer_joint = -1;
+  DeviceStatus inclinometer{};
+  JointReading inclinometer_angle{};
   DeviceStatus uwb_gateway{};
   DeviceStatus valve{};
 

@@ -31,7 +31,9 @@ enum class FaultKind : std::uint8_t {
 
 //! Which device a fault hits.
 struct FaultTarget {
-  enum class Kind : std::uint8_t { None, Joint, Tag, UwbGateway, Valve, Cutoff };
+  //! Inclinometer: the boom inclinometer (encoder-stuck, encoder-offset, encoder-dropout and
+  //! heartbeat-lost accept it as their target).
+  enum class Kind : std::uint8_t { None, Joint, Tag, UwbGateway, Valve, Cutoff, Inclinometer };
   Kind kind = Kind::None;
   int index = -1;  //!< joint index or tag id
 };

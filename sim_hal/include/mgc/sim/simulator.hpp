@@ -33,6 +33,13 @@ struct UwbParams {
   double dropout_probability = 0.02;  //!< a fix that never reaches the bus [-]
 };
 
+//! The boom inclinometer (a CANopen node when the bus plan has one, docs/protocol.md): a MEMS
+//! sensor's noise and its output filter, as a load moment limiter's angle sensor has them.
+struct InclinometerParams {
+  double noise_sigma_deg = 0.02;  //!< 1-sigma of each sample [deg]
+  double filter_s = 0.02;         //!< first-order output filter's time constant [s]
+};
+
 struct SimConfig {
   double physics_rate_hz = 1000.0;   //!< fixed integration rate [Hz]
   double actuator_lag_s = 0.15;      //!< every joint's flow-to-velocity time constant [s]
@@ -40,6 +47,7 @@ struct SimConfig {
   double valve_ramp_per_s = 10.0;    //!< the valve node's set-point ramp: full scale in 0.1 s [1/s]
   double encoder_noise_counts = 0.5; //!< 1-sigma encoder noise before quantisation [count]
   UwbParams uwb{};
+  InclinometerParams inclinometer{};
   std::vector<Fault> faults;
   std::uint64_t seed = 1;            //!< noise and dropouts; the same seed repeats a run exactly
   double scenario_time_offset_s = 0.0;  //!< scenario time at simulation time 0 [s]
@@ -138,6 +146,8 @@ class Simulator {
   void supervise_valve(std::int64_t now_us) noexcept;
   void enter_fail_safe(hal::pdo::ValveReason reason, std::int64_t now_us) noexcept;
   void emit_heartbeats(std::int64_t now_us) noexcept;
+  //! The inclinometer's answer to a SYNC: its filtered angle with noise, or its fault's.
+  void emit_inclinometer(std::int64_t now_us) noexcept;
   void emit_uwb(std::int64_t now_us) noexcept;
   void queue(const hal::CanFrame& frame, std::int64_t now_us, std::int64_t extra_delay_us = 0) noexcept;
   void flush(std::int64_t now_us) noexcept;
@@ -162,6 +172,12 @@ class Simulator {
   std::unique_ptr<planning::MachineModel> model_;
   mutable planning::Kinematics kinematics_{};
   planning::Random machine_tag_random_;
+  //! The inclinometer's noise, a stream of its own for the same reason; its filtered angle [rad].
+  planning::Random inclinometer_random_;
+  double inclinometer_filtered_rad_ = 0.0;
+  std::size_t inclinometer_node_ = 0;  //!< index in nodes_; 0: none (the first nodes are encoders)
+  bool inclinometer_stuck_ = false;
+  std::int32_t inclinometer_stuck_counts_ = 0;
 
   bool started_ = false;
   std::int64_t start_us_ = 0;
@@ -170,8 +186,8 @@ class Simulator {
   TrueState truth_{};
   SimCounters counters_{};
 
-  // Nodes: encoders 0..n-1, then the UWB gateway, the valve and the cut-off.
-  std::array<Node, hal::kMaxBusJoints + 3> nodes_{};
+  // Nodes: encoders 0..n-1, then the UWB gateway, the valve, the cut-off and the inclinometer.
+  std::array<Node, hal::kMaxBusJoints + 4> nodes_{};
   std::size_t num_nodes_ = 0;
   std::size_t valve_node_ = 0;   //!< index in nodes_
   std::size_t cutoff_node_ = 0;  //!< index in nodes_
