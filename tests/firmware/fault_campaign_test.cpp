@@ -240,17 +240,53 @@ TEST_CASE("campaign: a lying boom encoder, by a step and by a drift, is found wi
     INFO(lift.log);
     const double detect_s = static_cast<double>(lift.stop_us - SimRig::at_sim_s(t)) * 1e-6;
     CAPTURE(detect_s);
+    // The motion checks or the boom inclinometer, whichever sees it first.
     const bool motion_fault = lift.stop_reason == guidance::TransitionReason::JointRunaway ||
-                              lift.stop_reason == guidance::TransitionReason::JointNotFollowing;
+                              lift.stop_reason == guidance::TransitionReason::JointNotFollowing ||
+                              lift.stop_reason == guidance::TransitionReason::AngleDisagrees;
     CHECK(motion_fault);
     CHECK(detect_s <= 0.3);
     CHECK(lift.controller.supervisor().state() == guidance::SupervisorState::Fault);
     CHECK(lift.truly_at_rest());
     CHECK(lift.least_load_above_ground_m() > 0.0);
     CHECK(lift.peak_utilisation() <= 1.0);
-    WARN("drift lie: detected " << detect_s << " s, boom travel "
+    WARN("drift lie: " << guidance::to_string(lift.stop_reason) << " " << detect_s << " s after the fault, boom travel "
                                 << std::abs(lift.rig.sim->truth().position[kBoom] - boom_at_fault) / kDeg << " deg");
   }
+}
+
+TEST_CASE("campaign: the boom inclinometer finds a boom-encoder drift the loop follows, and a lying inclinometer", "[firmware][sim][campaign]") {
+  const double t = boom_moving_s();
+  SECTION("the encoder drifts at 0.65 of the boom's speed limit") {
+    // Lift 183 of the campaign: the motion checks take the encoder's shortfall for a slow actuator.
+    Lift lift(with_fault("encoder-offset:boom_elevation@" + std::to_string(t) + ",rate=0.67"));
+    const Outcome o = expect_caught(lift, t, guidance::TransitionReason::AngleDisagrees, 0.3);
+    CHECK(lift.controller.stats().plausibility_fault == guidance::PlausibilityFault::AngleDisagrees);
+    CHECK(lift.controller.stats().plausibility_joint == kBoom);
+    CHECK(o.boom_travel_deg < 1.5);
+  }
+  SECTION("the inclinometer drifts") {
+    Lift lift(with_fault("encoder-offset:inclinometer@" + std::to_string(t) + ",rate=0.67"));
+    (void)expect_caught(lift, t, guidance::TransitionReason::AngleDisagrees, 0.3);
+  }
+  SECTION("the inclinometer is stuck") {
+    Lift lift(with_fault("encoder-stuck:inclinometer@" + std::to_string(t)));
+    (void)expect_caught(lift, t, guidance::TransitionReason::AngleDisagrees, 0.3);
+  }
+}
+
+TEST_CASE("campaign: a silent inclinometer leaves the lift to its goal, judged no more and counted", "[firmware][sim][campaign]") {
+  const double t = boom_moving_s();
+  Lift lift(with_fault("heartbeat-lost:inclinometer@" + std::to_string(t)));
+  for (int block = 0; block < 40 && lift.controller.stats().goals_reached == 0; ++block) lift.rig.run(5'000'000);
+  INFO(lift.log);
+  const firmware::ControllerStats& st = lift.controller.stats();
+  CHECK(st.goals_reached == 1);
+  CHECK(st.plausibility_fault == guidance::PlausibilityFault::None);
+  CHECK(st.inclinometer_judged > 1000);
+  CHECK(st.inclinometer_unavailable_cycles > 100);
+  CHECK(st.inclinometer_peak_ratio < 0.6);
+  WARN("fault-free until the inclinometer fell silent: " << st.inclinometer_judged << " pairs judged, peak ratio " << st.inclinometer_peak_ratio);
 }
 
 TEST_CASE("campaign: a valve that ignores commands is found within 0.3 s and stopped through the cut-off", "[firmware][sim][campaign]") {
@@ -523,9 +559,24 @@ TEST_CASE("campaign: machine tags: a stuck encoder on a holding telescope that c
 
 TEST_CASE("campaign: machine tags: a slow drift of the boom encoder is found by the boom-tip tag", "[firmware][sim][campaign]") {
   // 0.15 deg/s: under what the actuator model's bracket can tell from motion (docs/diagnostics.md).
+  // The boom inclinometer silent from the start: the tag is the only second source.
   const double t = boom_moving_s();
-  const sim::SimConfig config = noisy(with_fault("encoder-offset:boom_elevation@" + std::to_string(t) + ",rate=0.15"));
-  SECTION("without the tag it goes unseen") {
+  const sim::SimConfig drift = noisy(with_fault("encoder-offset:boom_elevation@" + std::to_string(t) + ",rate=0.15"));
+  sim::SimConfig config = drift;
+  config.faults.push_back(sim::parse_machine_fault("heartbeat-lost:inclinometer@0", {}));
+  SECTION("with the boom inclinometer: AngleDisagrees within 1 s") {
+    Lift lift(drift, true);
+    lift.rig.run(SimRig::at_sim_s(t) - lift.rig.t_us);
+    REQUIRE(lift.controller.supervisor().state() == guidance::SupervisorState::Executing);
+    run_until_fault(lift, t + 40.0);
+    INFO(lift.log);
+    const double detect_s = static_cast<double>(lift.controller.stats().plausibility_detected_us - SimRig::at_sim_s(t)) * 1e-6;
+    CAPTURE(detect_s);
+    REQUIRE(lift.stop_reason == guidance::TransitionReason::AngleDisagrees);
+    CHECK(detect_s < 1.0);
+    WARN("boom encoder drifting 0.15 deg/s: AngleDisagrees " << detect_s << " s after the fault");
+  }
+  SECTION("without the tag or the inclinometer it goes unseen") {
     Lift lift(config);
     lift.rig.run(SimRig::at_sim_s(t) + 20'000'000 - lift.rig.t_us);
     INFO(lift.log);
