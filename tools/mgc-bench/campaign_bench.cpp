@@ -608,7 +608,8 @@ LiftRecord run_campaign_lift(const CampaignOptions& options, int index) {
       std::string text;
       if (kind == "encoder-stuck") {
         text = "encoder-stuck:" + spec.name + at;
-        expect = {{TransitionReason::EncoderStuck}, joint, 0.3};
+        // On the boom the inclinometer may see it first.
+        expect = {{TransitionReason::EncoderStuck, TransitionReason::AngleDisagrees}, joint, 0.3};
       } else if (kind == "encoder-step") {
         // A step the monitor can tell from motion (docs/diagnostics.md, EncoderStep): 1.5 to 4
         // times 1.5 × the joint's speed limit × 30 ms (two SYNCs apart and 10 ms), at least
