@@ -925,6 +925,7 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
   }
 
   fill_snapshot(s, out);
+  fill_snapshot_obstacles();
   if (site_) {
     site_fill_state(out);
     site_fill_plan();
@@ -960,6 +961,28 @@ void Controller::raise(std::size_t kind, bool active, std::int8_t severity, std:
   a.limit = limit;
   a.index = index;
   a.min_clearance_m = check_.min_clearance_m;
+}
+
+void Controller::fill_snapshot_obstacles() noexcept {
+  snap_.num_tracked = static_cast<int>(trackers_.size());
+  const std::size_t n = std::min<std::size_t>(trackers_.size(), kSnapshotMaxObstacles);
+  snap_.num_obstacles = static_cast<int>(n);
+  for (std::size_t t = 0; t < n; ++t) {
+    const ObstacleTracker& tracker = trackers_[t];
+    const PoseHistory& h = histories_[t];
+    SnapshotObstacle& o = snap_.obstacles[t];
+    o.obstacle_index = h.obstacle;
+    o.valid = tracker.valid(now_us_);
+    // A tracker that never fitted a pose holds the origin: that is no pose to show.
+    const bool ever = o.valid || tracker.last_update_us() > 0;
+    o.still = ever && tracker.still();
+    const Eigen::Vector3d& p = tracker.position_m();
+    o.position_m = ever ? std::array<double, 3>{p.x(), p.y(), p.z()} : std::array<double, 3>{kNaN, kNaN, kNaN};
+    o.yaw_rad = ever ? tracker.yaw_rad() : kNaN;
+    o.position_sigma_m = ever ? tracker.position_sigma_m() : kNaN;
+    o.speed_m_s = o.valid && h.window_full ? h.velocity_m_s.norm() : kNaN;
+    o.fix_us = ever ? tracker.last_update_us() : 0;
+  }
 }
 
 void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::SupervisorOutput& out) noexcept {

@@ -6,6 +6,7 @@
 #include <mgc/health_counters_t.hpp>
 #include <mgc/loop_timing_t.hpp>
 #include <mgc/machine_state_t.hpp>
+#include <mgc/obstacle_poses_t.hpp>
 #include <mgc/operator_guidance_t.hpp>
 #include <mgc/operator_instruction_t.hpp>
 #include <mgc/plan_t.hpp>
@@ -21,6 +22,7 @@ namespace {
 
 static_assert(RefusalCounter::kReasons == health_counters_t::MAX_REASONS);
 static_assert(command_status_t::NUM_REASONS <= health_counters_t::MAX_REASONS);
+static_assert(kSnapshotMaxObstacles == obstacle_poses_t::MAX_OBSTACLES);
 
 std::int8_t machine_kind_code(planning::MachineKind kind) noexcept {
   switch (kind) {
@@ -228,6 +230,30 @@ void FeedPublisher::publish_snapshot(const GuidanceSnapshot& s) {
   }
 
   publish_alerts(s, now_us);
+
+  if (s.num_tracked > 0 && now_us - last_obstacles_us_ >= config_.obstacle_period_us) {
+    last_obstacles_us_ = now_us;
+    const int no = std::clamp(s.num_obstacles, 0, kSnapshotMaxObstacles);
+    obstacle_poses_t poses{};
+    poses.utime = now_us;
+    poses.num_tracked = static_cast<std::int8_t>(std::clamp(s.num_tracked, 0, 127));
+    poses.num_obstacles = static_cast<std::int8_t>(no);
+    for (int i = 0; i < obstacle_poses_t::MAX_OBSTACLES; ++i) {
+      const bool used = i < no;
+      const SnapshotObstacle& o = s.obstacles[static_cast<std::size_t>(i)];
+      poses.obstacle_index[i] = used ? o.obstacle_index : -1;
+      poses.valid[i] = used && o.valid;
+      poses.still[i] = used && o.still;
+      poses.x[i] = used ? o.position_m[0] : kNaN;
+      poses.y[i] = used ? o.position_m[1] : kNaN;
+      poses.z[i] = used ? o.position_m[2] : kNaN;
+      poses.yaw[i] = used ? o.yaw_rad : kNaN;
+      poses.position_sigma[i] = used ? o.position_sigma_m : kNaN;
+      poses.speed[i] = used ? o.speed_m_s : kNaN;
+      poses.fix_age[i] = used && o.fix_us > 0 ? static_cast<double>(s.utime_us - o.fix_us) * 1e-6 : kNaN;
+    }
+    publish(channel::kObstaclePoses, poses);
+  }
 
   if (now_us - last_timing_us_ >= config_.timing_period_us) {
     last_timing_us_ = now_us;

@@ -22,6 +22,7 @@ namespace {
 struct Counts {
   long cycles = 0;
   long allocations = 0;  //!< made inside Controller::step
+  long tracked_pose_cycles = 0;  //!< snapshots carrying a current tracked obstacle pose
 };
 using Counted = std::shared_ptr<Counts>;
 
@@ -40,6 +41,8 @@ Counted drive(SimRig& rig, firmware::Controller& controller) {
     const firmware::ControllerOutput out = controller.step(s, SimRig::kCycleUs, commands, false);
     counts->allocations += test::allocation_count() - before;
     ++counts->cycles;
+    const firmware::GuidanceSnapshot& snap = controller.snapshot();
+    if (snap.num_obstacles > 0 && snap.obstacles[0].valid) ++counts->tracked_pose_cycles;
     if (out.start_nodes) (void)rig.hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
     rig.hal->set_pilot_enabled(out.pilot_enable);
     for (int j = 0; j < controller.num_joints(); ++j) rig.command[static_cast<std::size_t>(j)] = out.velocity[static_cast<std::size_t>(j)];
@@ -82,6 +85,7 @@ TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re
   REQUIRE(st.envelope_cut_cycles > 0);
   REQUIRE(st.machine_tag_fixes_judged > 1000);
   CHECK(counted->cycles > 15'000);
+  CHECK(counted->tracked_pose_cycles > 10'000);  // the snapshot's obstacle poses were filled
   CHECK(counted->allocations == 0);
 }
 

@@ -29,6 +29,9 @@ TEST_CASE("snapshot push/pop and operator words do not allocate", "[unit]") {
   s->plan.num_waypoints = 3;
   s->plan.positions[1][0] = 0.5;
   s->plan.positions[2] = {0.5, 0.2, 3.0, 0.0};
+  s->num_tracked = kSnapshotMaxObstacles;
+  s->num_obstacles = kSnapshotMaxObstacles;
+  for (auto& o : s->obstacles) o = {1, true, true, {-30.0, -6.0, 0.0}, 0.5, 0.1, 0.0, 1'000};
   AcceptedCommand cmd{};
 
   const long before = allocation_count();
@@ -44,6 +47,8 @@ TEST_CASE("snapshot push/pop and operator words do not allocate", "[unit]") {
   }
   const long after = allocation_count();
   REQUIRE(text_bytes > 0);
+  REQUIRE(out->num_obstacles == kSnapshotMaxObstacles);
+  REQUIRE(out->obstacles[kSnapshotMaxObstacles - 1].position_m[0] == -30.0);
   REQUIRE(snapshots->dropped() == kSnapshotQueueCapacity);
   REQUIRE(after - before == 0);
 }

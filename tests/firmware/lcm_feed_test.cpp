@@ -10,6 +10,7 @@
 #include <mgc/firmware/operator_words.hpp>
 #include <mgc/loop_timing_t.hpp>
 #include <mgc/machine_state_t.hpp>
+#include <mgc/obstacle_poses_t.hpp>
 #include <mgc/operator_guidance_t.hpp>
 #include <mgc/operator_instruction_t.hpp>
 #include <mgc/plan_t.hpp>
@@ -76,6 +77,7 @@ struct Recorder {
   std::vector<mgc::loop_timing_t> timing;
   std::vector<command_status_t> statuses;
   std::vector<mgc::health_counters_t> health;
+  std::vector<mgc::obstacle_poses_t> obstacles;
 
   template <class Msg>
   static void keep(std::vector<Msg>& into, const lcm::ReceiveBuffer* rbuf) {
@@ -91,6 +93,7 @@ struct Recorder {
   void on_timing(const lcm::ReceiveBuffer* r, const std::string&) { keep(timing, r); }
   void on_status(const lcm::ReceiveBuffer* r, const std::string&) { keep(statuses, r); }
   void on_health(const lcm::ReceiveBuffer* r, const std::string&) { keep(health, r); }
+  void on_obstacles(const lcm::ReceiveBuffer* r, const std::string&) { keep(obstacles, r); }
 
   void subscribe(lcm::LCM& lcm) {
     lcm.subscribe(channel::kMachineState, &Recorder::on_state, this);
@@ -101,6 +104,7 @@ struct Recorder {
     lcm.subscribe(channel::kLoopTiming, &Recorder::on_timing, this);
     lcm.subscribe(channel::kCommandStatus, &Recorder::on_status, this);
     lcm.subscribe(channel::kHealth, &Recorder::on_health, this);
+    lcm.subscribe(channel::kObstaclePoses, &Recorder::on_obstacles, this);
   }
 };
 
@@ -256,6 +260,56 @@ TEST_CASE("a changed instruction is published at once, a full queue's drops reac
   REQUIRE(rec.instructions.size() == 2);
   REQUIRE(rec.instructions[1].text == "boom up 4 deg");
   REQUIRE(rec.timing.back().snapshots_dropped == 5);
+}
+
+TEST_CASE("tracked obstacles go out at 10 Hz with their pose, validity and stillness, none without trackers", "[lcm]") {
+  auto snapshots = std::make_unique<SnapshotQueue>();
+  auto commands = std::make_unique<CommandQueue>();
+  FeedConfig config = memq_config();
+  FeedPublisher feed(config, test_key(), *snapshots, *commands);
+  Recorder rec;
+  rec.subscribe(feed.lcm());
+
+  auto s = crane_snapshot(1000);  // the loop's clock at 10 s
+  REQUIRE(snapshots->try_push(*s));  // no trackers: no message
+  drain(feed);
+  REQUIRE(rec.states.size() == 1);
+  REQUIRE(rec.obstacles.empty());
+
+  s->num_tracked = 2;
+  s->num_obstacles = 2;
+  s->obstacles[0] = {0, true, false, {-30.0, -6.0, 0.0}, -90 * kDeg, 0.12, 1.5, s->utime_us - 40'000};
+  s->obstacles[1] = {3, false, true, {4.0, 5.0, 0.0}, 0.25, 0.3, kNaN, s->utime_us - 2'500'000};
+  // 100 Hz snapshots over 0.25 s of the publisher's clock: poses at 0, 0.1 and 0.2 s.
+  for (int k = 0; k < 25; ++k) {
+    REQUIRE(snapshots->try_push(*s));
+    drain(feed);
+    g_monotonic_us += 10'000;
+  }
+  REQUIRE(rec.obstacles.size() == 3);
+  const mgc::obstacle_poses_t& m = rec.obstacles[0];
+  REQUIRE(m.num_tracked == 2);
+  REQUIRE(m.num_obstacles == 2);
+  REQUIRE(m.obstacle_index[0] == 0);
+  REQUIRE(m.valid[0]);
+  REQUIRE_FALSE(m.still[0]);
+  REQUIRE(m.x[0] == -30.0);
+  REQUIRE(m.y[0] == -6.0);
+  REQUIRE(m.yaw[0] == Approx(-90 * kDeg));
+  REQUIRE(m.position_sigma[0] == 0.12);
+  REQUIRE(m.speed[0] == 1.5);
+  REQUIRE(m.fix_age[0] == Approx(0.04));
+  REQUIRE(m.obstacle_index[1] == 3);
+  REQUIRE_FALSE(m.valid[1]);
+  REQUIRE(m.still[1]);
+  REQUIRE(m.x[1] == 4.0);
+  REQUIRE(std::isnan(m.speed[1]));
+  REQUIRE(m.fix_age[1] == Approx(2.5));
+  // The unused entries are marked unused.
+  REQUIRE(m.obstacle_index[2] == -1);
+  REQUIRE_FALSE(m.valid[2]);
+  REQUIRE(std::isnan(m.x[7]));
+  REQUIRE(rec.obstacles[1].utime - rec.obstacles[0].utime == 100'000);
 }
 
 TEST_CASE("commands: accepted ones reach the loop's queue, rejected ones raise alerts", "[lcm]") {

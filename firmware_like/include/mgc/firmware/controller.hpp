@@ -283,6 +283,8 @@ class Controller {
   //! The follower's velocity command into v_target_.
   void follow(double dt_s, double speed_scale) noexcept;
   void fill_snapshot(const hal::SensorSnapshot& s, const guidance::SupervisorOutput& out) noexcept;
+  //! The trackers' poses into snap_.obstacles, for the operator's display.
+  void fill_snapshot_obstacles() noexcept;
   ControllerOutput step_impl(const hal::SensorSnapshot& s, std::int64_t dt_us, const ControllerCommands& commands,
                              bool watchdog_tripped, const SiteInputs* site) noexcept;
   //! The site rules for this cycle: decision, speed factor, safety stop, peers posed.

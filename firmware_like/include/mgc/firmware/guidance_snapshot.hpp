@@ -17,6 +17,7 @@ namespace mgc::firmware {
 inline constexpr int kSnapshotMaxAlerts = 12;      //!< active alerts carried per snapshot [-]
 inline constexpr int kSnapshotMaxWaypoints = 32;   //!< plan waypoints carried per snapshot [-]
 inline constexpr int kInstructionTextBytes = 96;   //!< operator words incl. the terminating NUL [bytes]
+inline constexpr int kSnapshotMaxObstacles = 8;    //!< tracked obstacles carried per snapshot (obstacle_poses_t::MAX_OBSTACLES) [-]
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -43,6 +44,18 @@ struct SnapshotPlan {
   std::array<std::int8_t, kSnapshotMaxWaypoints> moving_joint{};  //!< plan_t::moving_joint [-]
   double path_length = kNaN;          //!< normalized joint-space length [-]
   double execution_time_s = kNaN;     //!< [s]
+};
+
+//! One tracked dynamic obstacle, as obstacle_poses_t carries it.
+struct SnapshotObstacle {
+  std::int32_t obstacle_index = -1;   //!< in the scenario's dynamic_obstacles [-]
+  bool valid = false;                 //!< the tracker's pose is current (ObstacleTracker::valid) [-]
+  bool still = false;                 //!< ObstacleTracker::still [-]
+  std::array<double, 3> position_m{kNaN, kNaN, kNaN};  //!< frame origin, site frame [m]
+  double yaw_rad = kNaN;              //!< about the site's z [rad]
+  double position_sigma_m = kNaN;     //!< 1-sigma [m]
+  double speed_m_s = kNaN;            //!< frame origin over the speed window, NaN until it fills [m/s]
+  std::int64_t fix_us = 0;            //!< last accepted tag fix, 0 = never [µs]
 };
 
 //! The loop's timing counters (ExecutiveStats reduced to numbers), plus the queue's drops.
@@ -107,6 +120,11 @@ struct GuidanceSnapshot {
   double envelope_distance_m = kNaN;  //!< nearest monitored point to a working-envelope limit, positive inside [m]
   std::int8_t envelope_limit = 0;     //!< operator_instruction_t::ENVELOPE_* [enum]
   std::int8_t envelope_wall = -1;     //!< [-]
+
+  // Tracked dynamic obstacles: the first kSnapshotMaxObstacles trackers; num_tracked counts all.
+  int num_tracked = 0;                //!< the controller's trackers [-]
+  int num_obstacles = 0;              //!< 0..kSnapshotMaxObstacles [-]
+  std::array<SnapshotObstacle, kSnapshotMaxObstacles> obstacles{};
 
   // Alerts active this cycle.
   int num_alerts = 0;                 //!< 0..kSnapshotMaxAlerts [-]

@@ -30,6 +30,7 @@ inline constexpr const char* kLoopTiming = "MGC_LOOP_TIMING";
 inline constexpr const char* kCommand = "MGC_COMMAND";
 inline constexpr const char* kCommandStatus = "MGC_COMMAND_STATUS";
 inline constexpr const char* kHealth = "MGC_HEALTH";
+inline constexpr const char* kObstaclePoses = "MGC_OBSTACLE_POSES";
 }  // namespace channel
 
 //! UDP multicast on this host only: ttl=0 keeps every packet off the site network.
@@ -65,6 +66,7 @@ struct FeedConfig {
   std::string lcm_url = kDefaultLcmUrl;
   std::int64_t guidance_period_us = 100'000;    //!< operator_guidance_t and the words: 10 Hz [µs]
   std::int64_t timing_period_us = 1'000'000;    //!< loop_timing_t and health_counters_t: 1 Hz [µs]
+  std::int64_t obstacle_period_us = 100'000;    //!< obstacle_poses_t, while any obstacle is tracked: 10 Hz [µs]
   std::int64_t alert_repeat_period_us = 1'000'000;  //!< every active alert again: 1 Hz [µs]
   std::int64_t refusal_alert_period_us = 1'000'000;  //!< at most one alert for refused commands per period [µs]
   int receive_timeout_ms = 5;                   //!< longest wait for a command per iteration [ms]
@@ -167,6 +169,7 @@ class FeedPublisher {
   GuidanceSnapshot snapshot_{};  //!< pop target; a member because it is several KB
   std::int64_t last_guidance_us_ = 0;
   std::int64_t last_timing_us_ = 0;
+  std::int64_t last_obstacles_us_ = 0;
   std::int64_t last_alert_repeat_us_ = 0;
   std::array<char, kInstructionTextBytes> last_text_{};
   std::int8_t last_instruction_ = -1;
