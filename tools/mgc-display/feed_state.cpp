@@ -2,6 +2,7 @@
 #include "feed_state.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <exception>
 
 #include "mgc/firmware/command_auth.hpp"
@@ -89,6 +90,14 @@ void FeedState::on_message(const std::string& channel, const void* data, int siz
     if (ok) {
       const std::lock_guard lock(mutex_);
       health_ = {h, now_us};
+    }
+  } else if (channel == ch::kObstaclePoses) {
+    obstacle_poses_t o{};
+    ok = decode(data, size, o) && o.num_obstacles >= 0 && o.num_obstacles <= obstacle_poses_t::MAX_OBSTACLES &&
+         o.num_tracked >= o.num_obstacles;
+    if (ok) {
+      const std::lock_guard lock(mutex_);
+      obstacles_ = {o, now_us};
     }
   } else if (channel == ch::kCommandStatus) {
     command_status_t s{};
@@ -196,10 +205,53 @@ void FeedState::clear() {
   instruction_ = {};
   timing_ = {};
   health_ = {};
+  obstacles_ = {};
   statuses_.clear();
   alerts_.clear();
   plan_ = {};
   plan_.version = plan_version + 1;
+}
+
+void FeedState::write_obstacles(Json& out, const Latest<obstacle_poses_t>& poses, std::int64_t now_us) const {
+  const obstacle_poses_t& m = poses.msg;
+  const bool current = now_us - poses.received_us <= kObstaclesStaleAfter_us;
+  out.key("obstacles").begin_object();
+  out.key("age_s").value(age_s(poses.received_us, now_us));
+  out.key("current").value(current);
+  out.key("num_tracked").value(static_cast<int>(m.num_tracked));
+  out.key("list").begin_array();
+  for (int i = 0; i < m.num_obstacles; ++i) {
+    const Eigen::Vector3d p(m.x[i], m.y[i], m.z[i]);
+    const bool posed = p.allFinite() && std::isfinite(m.yaw[i]);
+    // What the operator may take from the drawing: a pose that is not current is never shown as
+    // one. The order matters: an old message says nothing of the tracker's validity now.
+    const char* status = !posed ? "never fixed" : !current ? "not current" : !m.valid[i] ? "pose unknown" : m.still[i] ? "still" : "moving";
+    out.begin_object();
+    out.key("index").value(m.obstacle_index[i]);
+    out.key("name").value(scene_ ? scene_->dynamic_name(m.obstacle_index[i]) : std::string());
+    out.key("status").value(status);
+    out.key("valid").value(static_cast<bool>(m.valid[i]));
+    out.key("still").value(static_cast<bool>(m.still[i]));
+    if (posed) {
+      out.key("position").point(p);
+    } else {
+      out.key("position").null();
+    }
+    out.key("yaw_rad").value(m.yaw[i]);
+    out.key("sigma_m").value(m.position_sigma[i]);
+    out.key("speed_m_s").value(m.speed[i]);
+    // The fix's age now: its age when published plus the message's.
+    out.key("fix_age_s").value(m.fix_age[i] + age_s(poses.received_us, now_us));
+    out.key("parts");
+    if (scene_ && posed) {
+      scene_->write_dynamic_obstacle(out, m.obstacle_index[i], p, m.yaw[i]);
+    } else {
+      out.begin_array().end_array();
+    }
+    out.end_object();
+  }
+  out.end_array();
+  out.end_object();
 }
 
 std::string FeedState::json(std::int64_t now_us, std::uint64_t* plan_version) const {
@@ -209,6 +261,7 @@ std::string FeedState::json(std::int64_t now_us, std::uint64_t* plan_version) co
   const Latest<operator_instruction_t> instruction = instruction_;
   const Latest<loop_timing_t> timing = timing_;
   const Latest<health_counters_t> health = health_;
+  const Latest<obstacle_poses_t> obstacles = obstacles_;
   const auto statuses = statuses_;
   const auto alerts = alerts_;
   const auto received = received_;
@@ -326,6 +379,7 @@ std::string FeedState::json(std::int64_t now_us, std::uint64_t* plan_version) co
     out.key("commands_refused").value(static_cast<long long>(h.commands_refused));
     out.end_object();
   }
+  if (obstacles.received_us >= 0) write_obstacles(out, obstacles, now_us);
   out.key("alerts").begin_array();
   for (const auto& [id, e] : alerts) {
     const alert_t& a = e.alert;

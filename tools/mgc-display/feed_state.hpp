@@ -13,6 +13,7 @@
 #include <mgc/health_counters_t.hpp>
 #include <mgc/loop_timing_t.hpp>
 #include <mgc/machine_state_t.hpp>
+#include <mgc/obstacle_poses_t.hpp>
 #include <mgc/operator_guidance_t.hpp>
 #include <mgc/operator_instruction_t.hpp>
 #include <mgc/plan_t.hpp>
@@ -24,6 +25,9 @@ namespace mgc::display {
 //! How long after the last MGC_MACHINE_STATE the feed counts as stale: 50 of the controller's
 //! 100 Hz cycles. The page then says so in red and shows no value as current. [µs]
 inline constexpr std::int64_t kStaleAfter_us = 500'000;
+//! How long after the last MGC_OBSTACLE_POSES the tracked obstacles count as not current: five of
+//! the controller's 10 Hz periods. Their poses are then drawn as last reported, never as current. [µs]
+inline constexpr std::int64_t kObstaclesStaleAfter_us = 500'000;
 //! How long a cleared alert stays in the page's list, marked cleared. [µs]
 inline constexpr std::int64_t kClearedAlertKept_us = 30'000'000;
 //! Alerts kept at once; the oldest cleared ones go first. [-]
@@ -80,6 +84,7 @@ class FeedState {
 
   void on_alert(const alert_t& a, std::int64_t now_us);
   void on_plan(const plan_t& p, std::int64_t now_us);
+  void write_obstacles(Json& out, const Latest<obstacle_poses_t>& poses, std::int64_t now_us) const;
 
   const Scene* scene_;
   mutable std::mutex mutex_;
@@ -88,6 +93,7 @@ class FeedState {
   Latest<operator_instruction_t> instruction_;
   Latest<loop_timing_t> timing_;
   Latest<health_counters_t> health_;
+  Latest<obstacle_poses_t> obstacles_;
   std::vector<std::pair<command_status_t, std::int64_t>> statuses_;
   std::map<std::int32_t, AlertEntry> alerts_;
   PlanView plan_;

@@ -248,7 +248,7 @@ int main(int argc, char** argv) {
     }
     namespace ch = mgc::firmware::channel;
     for (const char* c : {ch::kMachineState, ch::kOperatorGuidance, ch::kOperatorInstruction, ch::kAlert, ch::kPlan,
-                          ch::kLoopTiming, ch::kHealth, ch::kCommandStatus}) {
+                          ch::kLoopTiming, ch::kHealth, ch::kCommandStatus, ch::kObstaclePoses}) {
       feed_lcm->subscribe(c, &FeedListener::on_raw, &listener);
     }
   }

@@ -96,6 +96,25 @@ void Scene::write_machine(Json& out, const planning::JointVector& q) const {
   out.end_object();
 }
 
+void Scene::write_dynamic_obstacle(Json& out, int index, const Eigen::Vector3d& position_m, double yaw_rad) const {
+  out.begin_array();
+  if (index >= 0 && static_cast<std::size_t>(index) < scenario_.dynamic_obstacles.size()) {
+    // As DynamicObstacleSpec::pose_at places the obstacle frame: translate, then yaw about z.
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translate(position_m);
+    pose.rotate(Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()));
+    for (const auto& part : scenario_.dynamic_obstacles[static_cast<std::size_t>(index)].obstacle.parts) {
+      write_points(out, planning::outline_points(part, pose));
+    }
+  }
+  out.end_array();
+}
+
+std::string Scene::dynamic_name(int index) const {
+  if (index < 0 || static_cast<std::size_t>(index) >= scenario_.dynamic_obstacles.size()) return "";
+  return scenario_.dynamic_obstacles[static_cast<std::size_t>(index)].obstacle.name;
+}
+
 std::vector<Eigen::Vector3d> Scene::tool_path(const std::vector<planning::JointVector>& waypoints) const {
   std::vector<Eigen::Vector3d> path;
   for (const auto& w : waypoints) {

@@ -30,6 +30,13 @@ class Scene {
   //! The machine's bodies (8 corners each) and tool point at q (dof() values) into out.
   void write_machine(Json& out, const planning::JointVector& q) const;
 
+  //! The outlines of dynamic obstacle `index` (of the scenario's dynamic_obstacles) placed at the
+  //! position and yaw about z, one list of points per part, as an array into out; an index the
+  //! scenario does not have writes an empty array. [m]
+  void write_dynamic_obstacle(Json& out, int index, const Eigen::Vector3d& position_m, double yaw_rad) const;
+  //! The name of dynamic obstacle `index`, or "" when the scenario has no such obstacle.
+  [[nodiscard]] std::string dynamic_name(int index) const;
+
   //! The tool point along a joint-space path, each segment sampled in steps of at most 2 deg or
   //! 0.1 m per joint; waypoints with another joint count than the model's give an empty path.
   [[nodiscard]] std::vector<Eigen::Vector3d> tool_path(const std::vector<planning::JointVector>& waypoints) const;

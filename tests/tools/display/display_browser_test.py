@@ -125,6 +125,53 @@ try:
     check(wait_for(lambda: browser.execute_script("return plan && plan.tool_path.length > 10"), 2),
           "the plan arrives as a tool path for the views")
 
+    # A tracked obstacle: crane 2 (the scenario's dynamic obstacle 0) at (-30, -6), yawed -90 deg.
+    # Its parts must be drawn where the plan view maps its frame (the carrier's middle is 2 m
+    # along its x, so 2 m south of the origin), in the colour of its state.
+    obstacle_li = "const li = document.querySelector(\"#tracked-obstacles li[data-obstacle-index='0']\"); " \
+                  "return li ? [li.dataset.status, li.textContent, li.dataset.planPx || ''] : null"
+    def obstacle():
+        return browser.execute_script(obstacle_li) or ["", "", ""]
+    check(not browser.find_elements(By.CSS_SELECTOR, "#tracked-obstacles li[data-obstacle-index]"),
+          "no tracked obstacle listed before one is published")
+    step("obstacle 0 1 0 -30 -6 -90 1.25")
+    shown = wait_for(lambda: obstacle()[0] == "moving" and obstacle()[2], 3)
+    status_, words, px = obstacle()
+    check(bool(shown) and words.startswith("crane-2: moving 1.3 m/s at (-30.0, -6.0) m"), "the obstacle listed as moving: " + words)
+    # The colour of the plan view at the carrier's middle: (-30, -8, 1) in the site frame.
+    pixel_at = """
+      const p = planView.map(arguments[0]);
+      const d = planView.ctx.getImageData(Math.round(p[0]), Math.round(p[1]), 1, 1).data;
+      return [d[0], d[1], d[2], d[3], p[0], p[1]];"""
+    def colour(point):
+        return browser.execute_script(pixel_at, point)
+    # By hue, so that whatever lies under the translucent fill (the site, nothing) does not matter.
+    def magenta(c):
+        return c[3] > 0 and c[0] - c[1] > 60 and c[2] - c[1] > 60
+    def blue(c):
+        return c[3] > 0 and c[2] - c[0] > 60 and c[2] - c[1] > 30
+    c = wait_for(lambda: (lambda c: c if magenta(c) else None)(colour([-30, -8, 1])), 2) or colour([-30, -8, 1])
+    ox, oy = (float(v) for v in px.split(",")) if px else (float("nan"), float("nan"))
+    origin = browser.execute_script("return planView.map([-30, -6, 0])")
+    check(magenta(c) and abs(ox - origin[0]) < 0.2 and abs(oy - origin[1]) < 0.2,
+          "the moving obstacle drawn magenta at its pose in the plan view: rgba%s at px (%.0f, %.0f), origin at %s" % (
+              tuple(c[:4]), c[4], c[5], px))
+    # Away from the pose (the same point on the far side of the origin): not the obstacle's colour.
+    check(not magenta(colour([-30, 6, 1])) and not blue(colour([-30, 6, 1])), "nothing drawn where the obstacle is not")
+    side = browser.execute_script("""
+      const p = sideView.map([-30, -8, 1]);
+      const d = sideView.ctx.getImageData(Math.round(p[0]), Math.round(p[1]), 1, 1).data;
+      return [d[0], d[1], d[2], d[3]];""")
+    check(magenta(side), "the moving obstacle drawn in the side view: rgba%s" % (tuple(side),))
+    step("obstacle 0 1 1 -30 -6 -90 0")
+    check(wait_for(lambda: obstacle()[0] == "still" and blue(colour([-30, -8, 1])), 2),
+          "a still obstacle drawn blue: %s, rgba%s" % (obstacle()[1], tuple(colour([-30, -8, 1])[:4])))
+    step("obstacle 0 0 1 -30 -6 -90 0")
+    check(wait_for(lambda: obstacle()[0] == "pose unknown" and not blue(colour([-30, -8, 1])), 2) and
+          "pose unknown, last fix" in obstacle()[1], "a lost obstacle: dashed, unfilled, 'pose unknown': " + obstacle()[1])
+    step("obstacle 0 1 0 -30 -6 -90 1.25")
+    check(wait_for(lambda: obstacle()[0] == "moving", 2), "the obstacle moving again")
+
     # An alert: absent until published, then shown within the push period and the draw.
     check(not browser.find_elements(By.CSS_SELECTOR, "#alerts li[data-alert-id='7']"), "no alert before it is raised")
     step("alert 7 4 1 1 5 3.5 2")
@@ -217,6 +264,7 @@ try:
     shot = os.path.join(out_dir, "display.png")
     browser.save_screenshot(shot)
     check(os.path.getsize(shot) > 10000, "screenshot written: " + shot)
+    step("obstacle none")
     step("stream 0")
     stopped_at = time.monotonic()
     became_stale = wait_for(lambda: text("feed-status") == "FEED STALE", 3, 0.01)
@@ -228,6 +276,8 @@ try:
           "no value shown as current while stale")
     check(browser.find_element(By.ID, "stale-banner").is_displayed() and "FEED STALE" in text("stale-banner"),
           "the red banner: " + text("stale-banner"))
+    check(obstacle()[0] == "stale" and "as last reported (not current)" in obstacle()[1] and
+          not magenta(colour([-30, -8, 1])), "the obstacle not shown as current while stale: " + obstacle()[1])
     browser.save_screenshot(os.path.join(out_dir, "display-stale.png"))
 
     errors = [e for e in browser.get_log("browser") if e.get("level") == "SEVERE"]

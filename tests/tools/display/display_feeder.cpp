@@ -8,6 +8,9 @@
 //   state SUPERVISOR LOAD_PCT Q0 Q1 ...   the state that `stream` publishes
 //   stream PERIOD_MS                      publish MGC_MACHINE_STATE every PERIOD_MS (0: stop); each
 //                                         message gets a new utime, and "utime wall_us" goes to SENT_LOG
+//   obstacle INDEX VALID STILL X Y YAW_DEG SPEED   one tracked obstacle that `stream` publishes on
+//                                         MGC_OBSTACLE_POSES with every 10th state (10 Hz at 10 ms)
+//   obstacle none                         no more obstacle poses
 //   guidance JOINT TARGET REMAINING SEGMENT NUM_SEGMENTS
 //   instruction CLEARANCE_M TEXT...
 //   alert ID SEVERITY SOURCE ACTIVE UNIT VALUE INDEX
@@ -20,6 +23,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
@@ -34,6 +38,7 @@
 
 #include <mgc/alert_t.hpp>
 #include <mgc/machine_state_t.hpp>
+#include <mgc/obstacle_poses_t.hpp>
 #include <mgc/operator_command_t.hpp>
 #include <mgc/operator_guidance_t.hpp>
 #include <mgc/operator_instruction_t.hpp>
@@ -88,6 +93,8 @@ int main(int argc, char** argv) {
 
   mgc::machine_state_t state{};
   state.machine_kind = mgc::machine_state_t::MACHINE_KIND_MOBILE_CRANE;
+  mgc::obstacle_poses_t poses{};
+  bool poses_on = false;
   std::atomic<int> period_ms{0};
   std::int64_t utime = 1'000'000;
   std::thread streamer([&] {
@@ -105,6 +112,10 @@ int main(int argc, char** argv) {
       state.utime = ++utime;
       state.utime_sample = state.utime;
       out.publish(ch::kMachineState, &state);
+      if (poses_on && utime % 10 == 0) {
+        poses.utime = state.utime;
+        out.publish(ch::kObstaclePoses, &poses);
+      }
       sent << state.utime << ' ' << wall_us() << '\n' << std::flush;  // read while the stream runs
     }
   });
@@ -132,6 +143,31 @@ int main(int argc, char** argv) {
       s >> p;
       period_ms = p;
       std::this_thread::sleep_for(std::chrono::milliseconds(2 * std::max(p, 5)));
+    } else if (verb == "obstacle") {
+      std::string first;
+      s >> first;
+      const std::lock_guard lock(out_mutex);
+      if (first == "none") {
+        poses_on = false;
+      } else {
+        int valid = 0, still = 0;
+        double yaw_deg = 0.0;
+        poses = {};
+        for (int i = 0; i < mgc::obstacle_poses_t::MAX_OBSTACLES; ++i) {
+          poses.obstacle_index[i] = -1;
+          poses.x[i] = poses.y[i] = poses.z[i] = poses.yaw[i] = poses.position_sigma[i] = poses.speed[i] = poses.fix_age[i] = NAN;
+        }
+        poses.num_tracked = poses.num_obstacles = 1;
+        poses.obstacle_index[0] = std::stoi(first);
+        s >> valid >> still >> poses.x[0] >> poses.y[0] >> yaw_deg >> poses.speed[0];
+        poses.valid[0] = valid != 0;
+        poses.still[0] = still != 0;
+        poses.z[0] = 0.0;
+        poses.yaw[0] = yaw_deg * M_PI / 180.0;
+        poses.position_sigma[0] = 0.1;
+        poses.fix_age[0] = valid ? 0.02 : 2.0;
+        poses_on = true;
+      }
     } else if (verb == "guidance") {
       mgc::operator_guidance_t g{};
       int joint = 0;

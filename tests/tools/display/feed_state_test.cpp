@@ -200,6 +200,137 @@ TEST_CASE("the machine is drawn through the scenario's model and a plan reaches 
   CHECK(contains(state.json(0, &page_a), "\"tool_path\":[]"));
 }
 
+namespace {
+
+//! Crane 2 of thesis-steel-frame (dynamic obstacle 0) at (-30, -6, 0), yawed -90 deg, moving;
+//! a second entry for another obstacle index as given.
+mgc::obstacle_poses_t crane_two_poses() {
+  mgc::obstacle_poses_t m{};
+  m.utime = 77;
+  m.num_tracked = 1;
+  m.num_obstacles = 1;
+  for (int i = 0; i < mgc::obstacle_poses_t::MAX_OBSTACLES; ++i) {
+    m.obstacle_index[i] = -1;
+    m.x[i] = m.y[i] = m.z[i] = m.yaw[i] = m.position_sigma[i] = m.speed[i] = m.fix_age[i] = NAN;
+  }
+  m.obstacle_index[0] = 0;
+  m.valid[0] = true;
+  m.still[0] = false;
+  m.x[0] = -30.0;
+  m.y[0] = -6.0;
+  m.z[0] = 0.0;
+  m.yaw[0] = -M_PI / 2;
+  m.position_sigma[0] = 0.15;
+  m.speed[0] = 1.25;
+  m.fix_age[0] = 0.05;
+  return m;
+}
+
+std::string status_of(const std::string& json) {
+  const std::string key = "\"status\":\"";
+  const auto at = json.find(key);
+  if (at == std::string::npos) return "";
+  return json.substr(at + key.size(), json.find('"', at + key.size()) - at - key.size());
+}
+
+}  // namespace
+
+TEST_CASE("tracked obstacles are drawn from the scenario's parts at their pose, and never old ones as current", "[display]") {
+  const mgc::display::Scene scene(scenario_path());
+  FeedState state(&scene);
+  CHECK_FALSE(contains(state.json(0, nullptr), "\"obstacles\":"));
+
+  feed(state, ch::kObstaclePoses, crane_two_poses(), 1'000'000);
+  std::string j = state.json(1'100'000, nullptr);
+  CHECK(contains(j, "\"obstacles\":{\"age_s\":0.1,\"current\":true,\"num_tracked\":1,\"list\":[{\"index\":0,\"name\":\"crane-2\""));
+  CHECK(status_of(j) == "moving");
+  CHECK(contains(j, "\"position\":[-30.000,-6.000,0.000]"));
+  CHECK(contains(j, "\"speed_m_s\":1.25"));
+  CHECK(contains(j, "\"fix_age_s\":0.15"));  // 0.05 s when published, 0.1 s since
+  // The first part (the carrier: 13 x 2.6 x 2 m at (2, 0, 1) in crane 2's frame) where the
+  // project's outline puts it at that pose: yawed -90 deg, its long side along y, south of x = -30.
+  const auto& spec = scene.scenario().dynamic_obstacles.at(0);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translate(Eigen::Vector3d(-30.0, -6.0, 0.0));
+  pose.rotate(Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()));
+  const auto carrier = mgc::planning::outline_points(spec.obstacle.parts.at(0), pose);
+  mgc::display::Json first;
+  first.begin_array();
+  for (const auto& p : carrier) first.point(p);
+  first.end_array();
+  CHECK(contains(j, "\"parts\":[" + first.str() + ",["));
+  double y_min = 1e9, y_max = -1e9;
+  for (const auto& p : carrier) {
+    CHECK(std::abs(p.x() + 30.0) <= 1.3 + 1e-9);
+    y_min = std::min(y_min, p.y());
+    y_max = std::max(y_max, p.y());
+  }
+  CHECK(y_min == Approx(-6.0 - 8.5));
+  CHECK(y_max == Approx(-6.0 + 4.5));
+
+  // Standing still, then lost: its last pose, said to be unknown.
+  auto m = crane_two_poses();
+  m.still[0] = true;
+  feed(state, ch::kObstaclePoses, m, 1'200'000);
+  CHECK(status_of(state.json(1'200'000, nullptr)) == "still");
+  m.valid[0] = false;
+  feed(state, ch::kObstaclePoses, m, 1'300'000);
+  j = state.json(1'300'000, nullptr);
+  CHECK(status_of(j) == "pose unknown");
+  CHECK(contains(j, "\"position\":[-30.000,-6.000,0.000]"));
+  CHECK(contains(j, "\"parts\":[[["));
+
+  // No message for 0.5 s: as last reported, not current, whatever the last one said.
+  m.valid[0] = true;
+  feed(state, ch::kObstaclePoses, m, 2'000'000);
+  CHECK(status_of(state.json(2'000'000 + mgc::display::kObstaclesStaleAfter_us, nullptr)) == "still");
+  j = state.json(2'000'001 + mgc::display::kObstaclesStaleAfter_us, nullptr);
+  CHECK(contains(j, "\"current\":false"));
+  CHECK(status_of(j) == "not current");
+
+  // A tracker that never fitted a pose: nothing to draw.
+  m = crane_two_poses();
+  m.valid[0] = false;
+  m.x[0] = m.y[0] = m.z[0] = m.yaw[0] = NAN;
+  feed(state, ch::kObstaclePoses, m, 3'000'000);
+  j = state.json(3'000'000, nullptr);
+  CHECK(status_of(j) == "never fixed");
+  CHECK(contains(j, "\"position\":null"));
+  CHECK(contains(j, "\"parts\":[]"));
+
+  // An index the scenario does not have: listed, nameless, no parts.
+  m = crane_two_poses();
+  m.obstacle_index[0] = 5;
+  feed(state, ch::kObstaclePoses, m, 4'000'000);
+  j = state.json(4'000'000, nullptr);
+  CHECK(contains(j, "\"index\":5,\"name\":\"\""));
+  CHECK(contains(j, "\"parts\":[]"));
+}
+
+TEST_CASE("malformed obstacle poses are counted and change nothing", "[display]") {
+  FeedState state(nullptr);
+  feed(state, ch::kObstaclePoses, crane_two_poses(), 0);
+  auto m = crane_two_poses();
+  m.num_obstacles = 9;  // above the arrays
+  m.num_tracked = 9;
+  feed(state, ch::kObstaclePoses, m, 1);
+  m.num_obstacles = 2;
+  m.num_tracked = 1;  // carries more than the controller tracks
+  feed(state, ch::kObstaclePoses, m, 2);
+  m.num_obstacles = -1;
+  feed(state, ch::kObstaclePoses, m, 3);
+  const char junk[] = "not an LCM message";
+  state.on_message(ch::kObstaclePoses, junk, sizeof junk, 4);
+  CHECK(state.malformed() == 4);
+  CHECK(state.received() == 5);
+  const std::string j = state.json(4, nullptr);
+  CHECK(contains(j, "\"malformed\":{\"MGC_OBSTACLE_POSES\":4}"));
+  // Still the first message: received at 0, one obstacle.
+  CHECK(contains(j, "\"obstacles\":{\"age_s\":4e-06,\"current\":true,\"num_tracked\":1,"));
+  CHECK(status_of(j) == "moving");
+  CHECK(contains(j, "\"parts\":[]"));  // no scene: nothing to draw
+}
+
 TEST_CASE("JSON text: strings escaped, non-finite numbers null", "[display]") {
   mgc::display::Json j;
   j.begin_object().key("text").value("a \"b\"\\\n").key("nan").value(NAN).key("inf").value(INFINITY).key("n").value(1.5).end_object();

@@ -11,6 +11,15 @@ const INSTRUCTION = ['unknown', 'hold', 'move joint', 'wait for re-plan', 'stopp
 const ALERT_UNIT_SECOND = 5;
 const SOURCE_COLLISION = 1;
 const LOAD_GAUGE_MAX_PCT = 120;
+// How a tracked obstacle is drawn, by the server's status (docs/operator-display.md): a moving one
+// filled magenta, a still one filled blue, one whose pose is not current dashed and unfilled.
+const OBSTACLE_STYLE = {
+  'moving': { fill: 'rgba(190,40,190,0.55)', stroke: '#601060', dashed: false },
+  'still': { fill: 'rgba(40,90,170,0.45)', stroke: '#1d3d66', dashed: false },
+  'pose unknown': { fill: null, stroke: '#c00', dashed: true },
+  'not current': { fill: null, stroke: '#c00', dashed: true },
+};
+const OBSTACLE_STALE_STYLE = { fill: null, stroke: '#999', dashed: true };
 
 const $ = (id) => document.getElementById(id);
 let config = null;
@@ -155,6 +164,7 @@ function drawView(view) {
       c.fillRect(q[0] - 2, q[1] - 2, 4, 4);
     }
   }
+  drawObstacles(view);
   const machine = last && last.state && last.state.machine;
   if (machine) {
     for (const body of machine.bodies) {
@@ -171,6 +181,58 @@ function drawView(view) {
       c.fillText('machine as last reported (not current)', 12, 18);
     }
   }
+}
+
+// Each tracked obstacle's parts at its pose, with its name and what the pose is worth.
+function drawObstacles(view) {
+  const list = last && last.obstacles ? last.obstacles.list : [];
+  const c = view.ctx;
+  for (const o of list) {
+    if (!o.parts.length) continue;
+    const style = stale ? OBSTACLE_STALE_STYLE : OBSTACLE_STYLE[o.status] || OBSTACLE_STALE_STYLE;
+    for (const part of o.parts) drawShape(view, part, style.fill, style.stroke, style.dashed);
+    if (view.ay !== 1 || !o.position) continue;
+    const q = view.map(o.position);
+    c.fillStyle = style.stroke;
+    c.beginPath();
+    c.arc(q[0], q[1], 3, 0, 2 * Math.PI);
+    c.fill();
+    c.font = 'bold 12px sans-serif';
+    c.fillText((o.name || 'obstacle ' + o.index) + ': ' + obstacleWords(o), q[0] + 6, q[1] - 6);
+  }
+}
+
+// The obstacle's state in words; while the feed is stale nothing is current.
+function obstacleWords(o) {
+  if (stale) return 'as last reported (not current)';
+  if (o.status === 'moving') return 'moving' + (Number.isFinite(o.speed_m_s) ? ' ' + o.speed_m_s.toFixed(1) + ' m/s' : '');
+  if (o.status === 'still') return 'still';
+  if (o.status === 'pose unknown') return 'pose unknown' + (Number.isFinite(o.fix_age_s) ? ', last fix ' + o.fix_age_s.toFixed(1) + ' s ago' : '');
+  if (o.status === 'not current') return 'pose unknown, no obstacle poses for ' + last.obstacles.age_s.toFixed(1) + ' s';
+  return 'never located';
+}
+
+function renderObstacles(m) {
+  const el = $('tracked-obstacles');
+  const o = m.obstacles;
+  const items = o ? o.list.map((b) => {
+    const cls = stale ? 'stale' : b.status === 'moving' ? 'moving' : b.status === 'still' ? 'still' : 'unknown';
+    let at = '';
+    if (b.position) {
+      at = ' at (' + b.position[0].toFixed(1) + ', ' + b.position[1].toFixed(1) + ') m';
+      if (!stale && Number.isFinite(b.sigma_m) && (b.status === 'moving' || b.status === 'still')) at += ' ± ' + b.sigma_m.toFixed(2) + ' m';
+    }
+    let px = '';
+    if (planView && b.position) {
+      const q = planView.map(b.position);
+      px = '" data-plan-px="' + q[0].toFixed(1) + ',' + q[1].toFixed(1);
+    }
+    return '<li class="' + cls + '" data-obstacle-index="' + b.index + '" data-status="' + (stale ? 'stale' : b.status) + px + '">' +
+      (b.name || 'obstacle ' + b.index) + ': ' + obstacleWords(b) + at + '</li>';
+  }) : [];
+  if (o && o.num_tracked > o.list.length) items.push('<li class="unknown">' + (o.num_tracked - o.list.length) + ' more tracked, not on the feed</li>');
+  const html = items.length ? items.join('') : '<li class="none">none on the feed</li>';
+  if (el.innerHTML !== html) el.innerHTML = html;
 }
 
 let planView = null, sideView = null;
@@ -201,6 +263,7 @@ function drawNow() {
   const machine = last && last.state && last.state.machine;
   if (machine) fitBounds([].concat(...machine.bodies));
   if (plan) fitBounds(plan.tool_path);
+  if (last && last.obstacles) for (const o of last.obstacles.list) for (const part of o.parts) fitBounds(part);
   if (!planView) {
     planView = makeView($('plan-view'), 0, 1);
     sideView = makeView($('side-view'), 0, 2);
@@ -237,6 +300,7 @@ function render() {
   renderAlerts(m);
   renderStatuses(m);
   if (m.playback) renderPlayback(m.playback);
+  renderObstacles(m);
   if (stale) {
     draw();
     return;
@@ -431,7 +495,10 @@ async function main() {
   } else {
     setText('view-note', 'No scenario given (--scenario F): the site and the machine are not drawn.');
   }
-  setText('view-note', (scene ? 'Dynamic obstacles are not on the operator feed and are not drawn; their nearest distance and approach warning are shown at right. ' : $('view-note').textContent));
+  if (scene) {
+    setText('view-note', 'Tracked obstacles (MGC_OBSTACLE_POSES) where the controller places them: moving filled magenta, ' +
+      'still filled blue, pose unknown or not current dashed red at the last pose.');
+  }
   setupControls();
   const events = new EventSource('/api/events');
   events.onmessage = onMessage;
