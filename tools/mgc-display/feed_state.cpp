@@ -99,6 +99,8 @@ void FeedState::on_message(const std::string& channel, const void* data, int siz
       const std::lock_guard lock(mutex_);
       obstacles_ = {o, now_us};
     }
+  } else if (channel == ch::kSiteState && site_) {
+    ok = site_->on_state(data, size, now_us);  // refused ones (bad MAC, unknown machine, ...) count here
   } else if (channel == ch::kCommandStatus) {
     command_status_t s{};
     ok = decode(data, size, s);
@@ -380,6 +382,7 @@ std::string FeedState::json(std::int64_t now_us, std::uint64_t* plan_version) co
     out.end_object();
   }
   if (obstacles.received_us >= 0) write_obstacles(out, obstacles, now_us);
+  if (site_) site_->write_json(out, now_us);
   out.key("alerts").begin_array();
   for (const auto& [id, e] : alerts) {
     const alert_t& a = e.alert;

@@ -19,6 +19,7 @@
 #include <mgc/plan_t.hpp>
 
 #include "scene.hpp"
+#include "site_view.hpp"
 
 namespace mgc::display {
 
@@ -42,6 +43,10 @@ class FeedState {
  public:
   //! scene may be null (no --scenario): then nothing is drawn and plans are not turned into paths.
   explicit FeedState(const Scene* scene) : scene_(scene) {}
+
+  //! With a site (--site), MGC_SITE_STATE is taken and the other machines are in json(); the site
+  //! outlives this state. Call before the first message.
+  void set_site(SiteView* site) noexcept { site_ = site; }
 
   //! One message from the bus (or a log) received at now_us (monotonic). Bytes that do not decode
   //! as the channel's type are counted per channel and otherwise ignored.
@@ -87,6 +92,7 @@ class FeedState {
   void write_obstacles(Json& out, const Latest<obstacle_poses_t>& poses, std::int64_t now_us) const;
 
   const Scene* scene_;
+  SiteView* site_ = nullptr;
   mutable std::mutex mutex_;
   Latest<machine_state_t> state_;
   Latest<operator_guidance_t> guidance_;

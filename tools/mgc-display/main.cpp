@@ -22,6 +22,7 @@
 #include <mutex>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -36,6 +37,7 @@
 #include "mgc/tools/cli_checks.hpp"
 #include "playback.hpp"
 #include "scene.hpp"
+#include "site_view.hpp"
 
 // After Eigen: httplib brings <resolv.h>, whose _res macro breaks Eigen's headers included later.
 #include <httplib.h>
@@ -161,15 +163,16 @@ bool parse_numbers(const std::string& text, std::vector<double>& out) {
   return !out.empty();
 }
 
-// A key file must be readable by its owner only: the key lets its holder move the machine.
-std::optional<std::string> key_file_problem(const std::string& path) {
+// A key file must be readable by its owner only: the key lets its holder move the machine (or,
+// for the site key, speak for one).
+std::optional<std::string> key_file_problem(const std::string& path, const std::string& what = "command key file") {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) return "command key file " + path + ": " + std::strerror(errno);
-  if (!S_ISREG(st.st_mode)) return "command key file " + path + ": not a regular file";
+  if (::stat(path.c_str(), &st) != 0) return what + " " + path + ": " + std::strerror(errno);
+  if (!S_ISREG(st.st_mode)) return what + " " + path + ": not a regular file";
   if ((st.st_mode & 077) != 0) {
     char mode[8];
     std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
-    return "command key file " + path + ": mode " + mode + "; expected no access for group and others (chmod 600)";
+    return what + " " + path + ": mode " + mode + "; expected no access for group and others (chmod 600)";
   }
   return std::nullopt;
 }
@@ -192,6 +195,10 @@ int main(int argc, char** argv) {
   std::string key_file;
   std::string log_file;
   int sender_id = 2;
+  std::string site_file;
+  std::string site_key_file;
+  std::string site_lcm_url;
+  std::optional<int> machine_id;
   app.add_option("--bind", bind, "address to serve the page on (loopback by default; docs/operator-display.md before widening)")
       ->capture_default_str();
   app.add_option("--port", port, "TCP port of the page")->capture_default_str()->check(CLI::Range(1, 65535));
@@ -200,6 +207,10 @@ int main(int argc, char** argv) {
   app.add_option("--key", key_file, "shared command key (32 raw bytes, mode 600): enables goal and acknowledge");
   app.add_option("--sender-id", sender_id, "this station's sender id on MGC_COMMAND")->capture_default_str();
   app.add_option("--log", log_file, "play a recorded LCM log (lcm-logger) instead of the live feed");
+  app.add_option("--site", site_file, "site file: draw the other machines of the site at their MGC_SITE_STATE joints");
+  app.add_option("--site-key", site_key_file, "site key (32 raw bytes, mode 600): draw only verified site states; needs --machine-id");
+  app.add_option("--machine-id", machine_id, "this display's machine in the site file: not drawn from the site channel");
+  app.add_option("--site-lcm-url", site_lcm_url, "LCM provider of the site channel (default: --lcm-url)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -211,6 +222,19 @@ int main(int argc, char** argv) {
   std::unique_ptr<mgc::display::Scene> scene;
   std::optional<mgc::firmware::CommandKey> key;
   std::unique_ptr<mgc::display::Playback> playback;
+  std::unique_ptr<mgc::display::SiteView> site;
+  if (site_file.empty() && (!site_key_file.empty() || machine_id || !site_lcm_url.empty())) {
+    std::fprintf(stderr, "mgc-display: --site-key, --machine-id and --site-lcm-url need --site\n");
+    return 2;
+  }
+  if (!site_file.empty() && scenario_file.empty()) {
+    std::fprintf(stderr, "mgc-display: --site: needs --scenario (the site is drawn in its machine's views)\n");
+    return 2;
+  }
+  if (!site_key_file.empty() && !machine_id) {
+    std::fprintf(stderr, "mgc-display: --site-key: needs --machine-id (this display's machine in the site file)\n");
+    return 2;
+  }
   try {
     if (!scenario_file.empty()) scene = std::make_unique<mgc::display::Scene>(scenario_file);
     if (!key_file.empty()) {
@@ -231,8 +255,32 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mgc-display: --log: %s\n", e.what());
     return 2;
   }
+  try {
+    if (!site_file.empty()) {
+      std::optional<mgc::firmware::SiteKey> site_key;
+      if (!site_key_file.empty()) {
+        if (const auto problem = key_file_problem(site_key_file, "site key file")) {
+          std::fprintf(stderr, "mgc-display: --site-key: %s\n", problem->c_str());
+          return 2;
+        }
+        site_key.emplace(mgc::firmware::load_site_key(site_key_file));
+      }
+      site = std::make_unique<mgc::display::SiteView>(site_file, machine_id ? std::optional<std::int32_t>(*machine_id) : std::nullopt,
+                                                      std::move(site_key), &mgc::firmware::realtime_clock_us);
+    }
+  } catch (const mgc::planning::io::InputError& e) {
+    std::fprintf(stderr, "mgc-display: --site: %s\n", e.what());
+    return 2;
+  } catch (const mgc::firmware::CommandKeyError& e) {
+    std::fprintf(stderr, "mgc-display: --site-key: %s\n", e.what());
+    return 2;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "mgc-display: --site %s: %s\n", site_file.c_str(), e.what());
+    return 2;
+  }
 
   FeedState feed(scene.get());
+  feed.set_site(site.get());
   Commander commander(lcm_url, std::move(key), sender_id);
   if (!commander.good()) {
     std::fprintf(stderr, "mgc-display: --lcm-url: cannot open '%s'\n", lcm_url.c_str());
@@ -251,6 +299,17 @@ int main(int argc, char** argv) {
                           ch::kLoopTiming, ch::kHealth, ch::kCommandStatus, ch::kObstaclePoses}) {
       feed_lcm->subscribe(c, &FeedListener::on_raw, &listener);
     }
+  }
+  // The site channel, on the site's network when it is not the feed's.
+  std::unique_ptr<lcm::LCM> site_lcm;
+  if (site && !playback) {
+    const std::string url = site_lcm_url.empty() ? lcm_url : site_lcm_url;
+    site_lcm = std::make_unique<lcm::LCM>(url);
+    if (!site_lcm->good()) {
+      std::fprintf(stderr, "mgc-display: --site-lcm-url: cannot open '%s'\n", url.c_str());
+      return 2;
+    }
+    site_lcm->subscribe(mgc::firmware::channel::kSiteState, &FeedListener::on_raw, &listener);
   }
   // The page's clock: monotonic time live, the log's time in playback (so a paused log is not stale).
   const auto feed_now_us = [&]() { return playback ? playback->position_us() : monotonic_us(); };
@@ -289,6 +348,7 @@ int main(int argc, char** argv) {
     j.key("lcm_url").value(lcm_url);
     j.key("playback").value(playback != nullptr);
     j.key("scene").raw(static_scene);
+    j.key("site").value(site != nullptr);
     j.end_object();
     reply(res, 200, j.str());
   });
@@ -394,6 +454,9 @@ int main(int argc, char** argv) {
     }
     while (!g_stop) feed_lcm->handleTimeout(100);
   });
+  std::thread site_thread([&] {
+    while (site_lcm && !g_stop) site_lcm->handleTimeout(100);
+  });
   std::thread stopper([&] {
     while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(50));
     server.stop();
@@ -405,6 +468,7 @@ int main(int argc, char** argv) {
   g_stop = true;
   stopper.join();
   feed_thread.join();
+  site_thread.join();
   std::printf("mgc-display: %lld messages received, %lld malformed\n", static_cast<long long>(feed.received()),
               static_cast<long long>(feed.malformed()));
   return listened ? 0 : 1;

@@ -85,8 +85,9 @@ def step(line):
     return feeder.stdout.readline().strip()
 
 
+site_file = os.path.join(source_dir, "scenarios", "sites", "thesis-steel-frame.yaml")
 display = subprocess.Popen([display_bin, "--port", str(http_port), "--lcm-url", lcm_url, "--scenario", scenario,
-                            "--key", key_file], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            "--key", key_file, "--site", site_file, "--machine-id", "1"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 url = "http://127.0.0.1:%d/" % http_port
 first = display.stdout.readline().strip()
 check(first == "mgc-display: " + url + " (feed " + lcm_url + ")", "mgc-display prints its URL: " + first)
@@ -171,6 +172,26 @@ try:
           "pose unknown, last fix" in obstacle()[1], "a lost obstacle: dashed, unfilled, 'pose unknown': " + obstacle()[1])
     step("obstacle 0 1 0 -30 -6 -90 1.25")
     check(wait_for(lambda: obstacle()[0] == "moving", 2), "the obstacle moving again")
+
+    # The site's other machine: the tower crane (machine 2, base at (-40, -10)) at its reported
+    # joints, through its own model, marked unverified (no site key).
+    member_li = "const li = document.querySelector(\"#site-members li[data-machine-id='2']\"); " \
+                "return li ? [li.dataset.status, li.textContent] : ['', '']"
+    def teal(c):
+        return c[3] > 0 and c[1] - c[0] > 60 and c[2] - c[0] > 60
+    check(wait_for(lambda: browser.execute_script(member_li)[1].endswith("not heard from"), 2),
+          "the site's other machine listed, not heard from: " + browser.execute_script(member_li)[1])
+    step("site 2 1 2.5 20 20")
+    check(wait_for(lambda: browser.execute_script(member_li)[0] == "current" and teal(colour([-40, -10, 5])), 3),
+          "the tower crane drawn teal at its base in the plan view: %s, rgba%s" % (
+              browser.execute_script(member_li)[1], tuple(colour([-40, -10, 5])[:4])))
+    check("EXECUTING" in browser.execute_script(member_li)[1] and "UNVERIFIED" in text("site-note"),
+          "listed as executing, the site's states unverified: " + text("site-note"))
+    tower_side = browser.execute_script("""
+      const p = sideView.map([-40, -10, 5]);
+      const d = sideView.ctx.getImageData(Math.round(p[0]), Math.round(p[1]), 1, 1).data;
+      return [d[0], d[1], d[2], d[3]];""")
+    check(teal(tower_side), "its mast in the side view: rgba%s" % (tuple(tower_side),))
 
     # An alert: absent until published, then shown within the push period and the draw.
     check(not browser.find_elements(By.CSS_SELECTOR, "#alerts li[data-alert-id='7']"), "no alert before it is raised")
@@ -265,6 +286,7 @@ try:
     browser.save_screenshot(shot)
     check(os.path.getsize(shot) > 10000, "screenshot written: " + shot)
     step("obstacle none")
+    step("site none")
     step("stream 0")
     stopped_at = time.monotonic()
     became_stale = wait_for(lambda: text("feed-status") == "FEED STALE", 3, 0.01)
@@ -278,6 +300,8 @@ try:
           "the red banner: " + text("stale-banner"))
     check(obstacle()[0] == "stale" and "as last reported (not current)" in obstacle()[1] and
           not magenta(colour([-30, -8, 1])), "the obstacle not shown as current while stale: " + obstacle()[1])
+    check(browser.execute_script(member_li)[0] == "stale" and not teal(colour([-40, -10, 5])),
+          "the site's machine not shown as current while stale: " + browser.execute_script(member_li)[1])
     browser.save_screenshot(os.path.join(out_dir, "display-stale.png"))
 
     errors = [e for e in browser.get_log("browser") if e.get("level") == "SEVERE"]

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # mgc-display's command line: bad inputs exit 2 with one line (port in use, key file of the wrong
-# size or mode, unreadable scenario, logs that are not whole LCM logs), and a recorded log plays
+# size or mode, unreadable scenario, bad site options, logs that are not whole LCM logs), and a recorded log plays
 # with pause, seek and speed from the served origin only.
 #   display_cli_test.sh MGC_DISPLAY DISPLAY_FEEDER SOURCE_DIR
 set -u
@@ -29,6 +29,21 @@ expect_bad "missing scenario" '^mgc-display: --scenario: .*none.yaml' --scenario
 printf 'name: [unclosed\n' >"$tmp/bad.yaml"
 expect_bad "malformed scenario" '^mgc-display: --scenario: .*bad.yaml' --scenario "$tmp/bad.yaml" --lcm-url "$lcm_url"
 expect_bad "port out of range" '^mgc-display: --port' --port 70000
+
+# The site: a missing file, a machine id it lacks, a site key without a machine id or open to
+# others, the site options without --site, a site without a scenario.
+site="$src/scenarios/sites/thesis-steel-frame.yaml"
+head -c 32 /dev/urandom >"$tmp/site.key"
+chmod 600 "$tmp/site.key"
+expect_bad "missing site" '^mgc-display: --site: .*none-site.yaml' --scenario "$scenario" --site "$tmp/none-site.yaml" --lcm-url "$lcm_url"
+expect_bad "machine id not on the site" '^mgc-display: --site: .*thesis-steel-frame.yaml.*9' --scenario "$scenario" --site "$site" \
+  --machine-id 9 --lcm-url "$lcm_url"
+expect_bad "site key without machine id" '^mgc-display: --site-key: needs --machine-id' --scenario "$scenario" --site "$site" \
+  --site-key "$tmp/site.key" --lcm-url "$lcm_url"
+expect_bad "site key readable by others" '^mgc-display: --site-key: site key file .*open.key: mode 0644' --scenario "$scenario" \
+  --site "$site" --machine-id 1 --site-key "$tmp/open.key" --lcm-url "$lcm_url"
+expect_bad "site options without a site" '^mgc-display: --site-key, --machine-id and --site-lcm-url need --site' --machine-id 1
+expect_bad "site without a scenario" '^mgc-display: --site: needs --scenario' --site "$site" --lcm-url "$lcm_url"
 
 # Logs: a good one of 2 s, then cut, then text, then empty.
 printf 'state 4 55 0.3 0.9 30 20\nwrite-log %s 2\nquit\n' "$tmp/lift.lcmlog" | "$feeder" "$lcm_url" "$tmp/sent.txt" >/dev/null

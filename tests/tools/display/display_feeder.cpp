@@ -11,6 +11,9 @@
 //   obstacle INDEX VALID STILL X Y YAW_DEG SPEED   one tracked obstacle that `stream` publishes on
 //                                         MGC_OBSTACLE_POSES with every 10th state (10 Hz at 10 ms)
 //   obstacle none                         no more obstacle poses
+//   site ID PRIORITY Q0 Q1 ...            another machine of the site: `stream` publishes its
+//                                         unsigned MGC_SITE_STATE with every 5th state (20 Hz at 10 ms)
+//   site none                             no more site states
 //   guidance JOINT TARGET REMAINING SEGMENT NUM_SEGMENTS
 //   instruction CLEARANCE_M TEXT...
 //   alert ID SEVERITY SOURCE ACTIVE UNIT VALUE INDEX
@@ -43,6 +46,7 @@
 #include <mgc/operator_guidance_t.hpp>
 #include <mgc/operator_instruction_t.hpp>
 #include <mgc/plan_t.hpp>
+#include <mgc/site_state_t.hpp>
 
 #include "mgc/firmware/command_auth.hpp"
 #include "mgc/firmware/lcm_feed.hpp"
@@ -95,6 +99,8 @@ int main(int argc, char** argv) {
   state.machine_kind = mgc::machine_state_t::MACHINE_KIND_MOBILE_CRANE;
   mgc::obstacle_poses_t poses{};
   bool poses_on = false;
+  mgc::site_state_t site{};
+  bool site_on = false;
   std::atomic<int> period_ms{0};
   std::int64_t utime = 1'000'000;
   std::thread streamer([&] {
@@ -115,6 +121,12 @@ int main(int argc, char** argv) {
       if (poses_on && utime % 10 == 0) {
         poses.utime = state.utime;
         out.publish(ch::kObstaclePoses, &poses);
+      }
+      if (site_on && utime % 5 == 0) {
+        site.utime = state.utime;
+        ++site.sequence;
+        site.sender_time_us = wall_us();
+        out.publish(ch::kSiteState, &site);
       }
       sent << state.utime << ' ' << wall_us() << '\n' << std::flush;  // read while the stream runs
     }
@@ -167,6 +179,24 @@ int main(int argc, char** argv) {
         poses.position_sigma[0] = 0.1;
         poses.fix_age[0] = valid ? 0.02 : 2.0;
         poses_on = true;
+      }
+    } else if (verb == "site") {
+      std::string first;
+      s >> first;
+      const std::lock_guard lock(out_mutex);
+      if (first == "none") {
+        site_on = false;
+      } else {
+        site = {};
+        site.machine_id = std::stoi(first);
+        s >> site.priority;
+        double v = 0.0;
+        int n = 0;
+        while (n < 8 && s >> v) site.joint_position[n++] = v;
+        site.num_joints = static_cast<std::int8_t>(n);
+        site.supervisor_state = mgc::machine_state_t::SUPERVISOR_EXECUTING;
+        site.sequence = wall_us();
+        site_on = true;
       }
     } else if (verb == "guidance") {
       mgc::operator_guidance_t g{};

@@ -5,6 +5,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,7 +17,11 @@
 #include "json.hpp"
 #include "mgc/firmware/lcm_feed.hpp"
 #include "playback.hpp"
+#include "mgc/firmware/site_rules.hpp"
+#include "mgc/planning/obstacle.hpp"
+#include "mgc/planning/site.hpp"
 #include "scene.hpp"
+#include "site_view.hpp"
 
 namespace {
 
@@ -380,4 +385,126 @@ TEST_CASE("a recorded log plays in its own time, seeks back and refuses what is 
   CHECK_THROWS_WITH(mgc::display::Playback(dir + "/text.lcmlog"), Catch::Contains("no LCM log event"));
   CHECK_THROWS_WITH(mgc::display::Playback(dir + "/none.lcmlog"), Catch::Contains("none.lcmlog: No such file"));
   std::filesystem::remove_all(dir);
+}
+
+namespace {
+
+std::string site_path() { return std::string(MGC_SOURCE_DIR) + "/scenarios/sites/thesis-steel-frame.yaml"; }
+
+constexpr std::int64_t kSiteNow_us = 1'765'000'000'000'000;  //!< the stepped CLOCK_REALTIME [µs]
+std::int64_t site_clock_us() noexcept { return kSiteNow_us; }
+
+//! Machine 2 of the site (the tower crane, 3 joints), as its controller would report it.
+mgc::site_state_t tower_state(std::int64_t sequence) {
+  mgc::site_state_t s{};
+  s.utime = 5'000'000;
+  s.machine_id = 2;
+  s.priority = 1;
+  s.supervisor_state = mgc::machine_state_t::SUPERVISOR_EXECUTING;
+  s.num_joints = 3;
+  s.joint_position[0] = 0.3;
+  s.joint_position[1] = 30.0;
+  s.joint_position[2] = 20.0;
+  s.time_to_rest_s = 0.0;
+  s.sequence = sequence;
+  s.sender_time_us = kSiteNow_us;
+  return s;
+}
+
+mgc::firmware::SiteKey test_site_key(std::uint8_t seed) {
+  std::array<std::uint8_t, mgc::firmware::kCommandKeyBytes> k{};
+  for (std::size_t i = 0; i < k.size(); ++i) k[i] = static_cast<std::uint8_t>(seed + 7 * i);
+  return mgc::firmware::SiteKey(k);
+}
+
+}  // namespace
+
+TEST_CASE("the other machines of a site are drawn through their own models at their reported joints", "[display][site]") {
+  const mgc::display::Scene scene(scenario_path());
+  mgc::display::SiteView site(site_path(), 1, std::nullopt, &site_clock_us);
+  FeedState state(&scene);
+  state.set_site(&site);
+  std::string j = state.json(0, nullptr);
+  CHECK(contains(j, "\"site\":{\"name\":\"thesis-steel-frame-site\",\"verified\":false"));
+  CHECK(contains(j, "{\"id\":1,\"priority\":2,\"name\":\"Grove TMS870\",\"own\":true,\"age_s\":null}"));
+  CHECK(contains(j, "\"own\":false,\"age_s\":null}"));  // machine 2 not heard from yet
+
+  feed(state, ch::kSiteState, tower_state(1), 1'000'000);
+  j = state.json(1'100'000, nullptr);
+  CHECK(contains(j, "\"own\":false,\"age_s\":0.1,\"current\":true,\"supervisor\":4,\"joints\":[0.3,30,20],\"bodies\":[[["));
+  // The bodies are the tower crane's model at its base, at the reported joints.
+  const mgc::planning::Site& s = site.site();
+  const auto model = mgc::planning::build_model(mgc::planning::lift_scenario(s, 1, 0));
+  mgc::planning::JointVector q(3);
+  q << 0.3, 30.0, 20.0;
+  mgc::planning::Kinematics k;
+  model->forward_kinematics(q, k);
+  mgc::display::Json body;
+  body.begin_array();
+  const auto& last_body = k.bodies.at(model->bodies().size() - 1);
+  for (const auto& p : mgc::planning::box_corners(last_body.world_from_body, last_body.size_m)) body.point(p);
+  body.end_array();
+  CHECK(contains(j, body.str() + "],\"base\":"));
+  mgc::display::Json base;
+  base.point(s.machines[1].world_from_base.translation());
+  CHECK(contains(j, "\"base\":" + base.str()));
+
+  // Past the controllers' own staleness rule: not current.
+  const std::int64_t stale_us = mgc::firmware::SiteRulesConfig{}.stale_after_us();
+  CHECK(contains(state.json(1'000'000 + stale_us, nullptr), "\"current\":true"));
+  CHECK(contains(state.json(1'000'001 + stale_us, nullptr), "\"current\":false"));
+
+  // Refused and counted: the display's own machine, a machine the site lacks, another joint
+  // count, non-finite joints, bytes that are no state. None changes what is drawn.
+  auto own = tower_state(2);
+  own.machine_id = 1;
+  feed(state, ch::kSiteState, own, 2'000'000);
+  auto unknown = tower_state(3);
+  unknown.machine_id = 7;
+  feed(state, ch::kSiteState, unknown, 2'000'000);
+  auto joints = tower_state(4);
+  joints.num_joints = 4;
+  feed(state, ch::kSiteState, joints, 2'000'000);
+  auto nan = tower_state(5);
+  nan.joint_position[1] = NAN;
+  feed(state, ch::kSiteState, nan, 2'000'000);
+  const char junk[] = "not a site state";
+  state.on_message(ch::kSiteState, junk, sizeof junk, 2'000'000);
+  j = state.json(2'000'000, nullptr);
+  CHECK(contains(j, "\"MGC_SITE_STATE\":5"));
+  CHECK(contains(j, "\"joints\":[0.3,30,20]"));
+  CHECK(contains(j, "\"age_s\":1,\"current\":false"));
+  CHECK(state.malformed() == 5);
+  CHECK(state.received() == 6);
+}
+
+TEST_CASE("with a site key only verified site states are drawn", "[display][site]") {
+  const mgc::display::Scene scene(scenario_path());
+  mgc::display::SiteView site(site_path(), 1, test_site_key(3), &site_clock_us);
+  FeedState state(&scene);
+  state.set_site(&site);
+  CHECK(contains(state.json(0, nullptr), "\"verified\":true"));
+
+  auto forged = tower_state(1);
+  mgc::firmware::sign_site_state(forged, test_site_key(4));  // another key
+  feed(state, ch::kSiteState, forged, 1'000'000);
+  auto late = tower_state(2);
+  late.sender_time_us = kSiteNow_us - 10'000'000;  // a recording, 10 s late
+  mgc::firmware::sign_site_state(late, test_site_key(3));
+  feed(state, ch::kSiteState, late, 1'000'000);
+  std::string j = state.json(1'000'000, nullptr);
+  CHECK(contains(j, "\"own\":false,\"age_s\":null}"));
+  CHECK(contains(j, "\"refused\":{\"" + std::string(mgc::firmware::site_reason_name(mgc::firmware::SiteReason::BadMac)) + "\":1,\"" +
+                        mgc::firmware::site_reason_name(mgc::firmware::SiteReason::TimeBehind) + "\":1}"));
+
+  auto good = tower_state(3);
+  mgc::firmware::sign_site_state(good, test_site_key(3));
+  feed(state, ch::kSiteState, good, 1'000'000);
+  feed(state, ch::kSiteState, good, 1'050'000);  // its replay
+  j = state.json(1'100'000, nullptr);
+  CHECK(contains(j, "\"age_s\":0.1,\"current\":true,\"supervisor\":4,\"joints\":[0.3,30,20]"));
+  CHECK(state.malformed() == 3);
+
+  CHECK_THROWS_WITH(mgc::display::SiteView(site_path(), 9, std::nullopt, &site_clock_us), Catch::Contains("9"));
+  CHECK_THROWS_AS(mgc::display::SiteView(site_path(), std::nullopt, test_site_key(3), &site_clock_us), std::invalid_argument);
 }

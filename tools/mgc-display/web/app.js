@@ -165,6 +165,7 @@ function drawView(view) {
     }
   }
   drawObstacles(view);
+  drawSite(view);
   const machine = last && last.state && last.state.machine;
   if (machine) {
     for (const body of machine.bodies) {
@@ -235,6 +236,40 @@ function renderObstacles(m) {
   if (el.innerHTML !== html) el.innerHTML = html;
 }
 
+// The other machines of the site at their reported joints, teal; dashed grey when not current.
+function drawSite(view) {
+  const members = last && last.site ? last.site.members : [];
+  const c = view.ctx;
+  for (const m of members) {
+    if (m.own || !m.bodies) continue;
+    const old = stale || !m.current;
+    for (const body of m.bodies) drawShape(view, body, old ? null : 'rgba(20,150,140,0.55)', old ? '#999' : '#0a4d48', old);
+    if (view.ay !== 1) continue;
+    const q = view.map(m.base);
+    c.fillStyle = old ? '#999' : '#0a4d48';
+    c.font = 'bold 12px sans-serif';
+    c.fillText('machine ' + m.id + (old ? ' (as last reported, not current)' : last.site.verified ? '' : ' (unverified)'), q[0] + 6, q[1] + 14);
+  }
+}
+
+function renderSite(m) {
+  const s = m.site;
+  if (!s) return;
+  $('site-box').hidden = false;
+  setText('site-note', s.name + ': ' + (s.verified ? 'states verified with the site key' :
+    'UNVERIFIED: no site key, any program on the network could send these states') +
+    (Object.keys(s.refused).length ? '; refused ' + Object.entries(s.refused).map(([r, n]) => r + ' ' + n).join(', ') : ''));
+  const html = s.members.filter((b) => !b.own).map((b) => {
+    const heard = b.age_s !== null;
+    const cls = stale ? 'stale' : !heard ? 'none' : b.current ? 'current' : 'old';
+    let what = !heard ? 'not heard from' : stale || !b.current ? 'as last reported (not current), ' + b.age_s.toFixed(1) + ' s ago'
+      : (SUPERVISOR[b.supervisor] || 'UNKNOWN');
+    return '<li class="' + cls + '" data-machine-id="' + b.id + '" data-status="' + cls + '">machine ' + b.id + ' (' + b.name +
+      ', priority ' + b.priority + '): ' + what + '</li>';
+  }).join('');
+  if ($('site-members').innerHTML !== html) $('site-members').innerHTML = html;
+}
+
 let planView = null, sideView = null;
 let drawPending = false;
 function draw() {
@@ -264,6 +299,7 @@ function drawNow() {
   if (machine) fitBounds([].concat(...machine.bodies));
   if (plan) fitBounds(plan.tool_path);
   if (last && last.obstacles) for (const o of last.obstacles.list) for (const part of o.parts) fitBounds(part);
+  if (last && last.site) for (const m of last.site.members) if (m.bodies && !m.own) for (const b of m.bodies) fitBounds(b);
   if (!planView) {
     planView = makeView($('plan-view'), 0, 1);
     sideView = makeView($('side-view'), 0, 2);
@@ -301,6 +337,7 @@ function render() {
   renderStatuses(m);
   if (m.playback) renderPlayback(m.playback);
   renderObstacles(m);
+  renderSite(m);
   if (stale) {
     draw();
     return;

@@ -31,6 +31,7 @@ inline constexpr const char* kCommand = "MGC_COMMAND";
 inline constexpr const char* kCommandStatus = "MGC_COMMAND_STATUS";
 inline constexpr const char* kHealth = "MGC_HEALTH";
 inline constexpr const char* kObstaclePoses = "MGC_OBSTACLE_POSES";
+inline constexpr const char* kSiteState = "MGC_SITE_STATE";  //!< the site channel (docs/site.md)
 }  // namespace channel
 
 //! UDP multicast on this host only: ttl=0 keeps every packet off the site network.
