@@ -200,6 +200,7 @@ std::int64_t FeedState::malformed() const {
 }
 
 void FeedState::clear() {
+  if (site_) site_->clear();
   const std::lock_guard lock(mutex_);
   const std::uint64_t plan_version = plan_.version;
   state_ = {};

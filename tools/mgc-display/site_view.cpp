@@ -73,6 +73,11 @@ bool SiteView::on_state(const void* data, int size, std::int64_t now_us) {
   return true;
 }
 
+void SiteView::clear() {
+  const std::lock_guard lock(mutex_);
+  for (Member& m : members_) m.received_us = -1;
+}
+
 void SiteView::write_json(Json& out, std::int64_t now_us) const {
   const std::lock_guard lock(mutex_);
   out.key("site").begin_object();

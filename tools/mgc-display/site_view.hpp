@@ -46,6 +46,9 @@ class SiteView {
   //! heard from, its bodies at its joints.
   void write_json(Json& out, std::int64_t now_us) const;
 
+  //! Forgets every member's state (playback seeks back); the verifier keeps its counters.
+  void clear();
+
   [[nodiscard]] bool verified() const noexcept { return verifier_ != nullptr; }
   [[nodiscard]] const planning::Site& site() const noexcept { return site_; }
 

@@ -476,6 +476,10 @@ TEST_CASE("the other machines of a site are drawn through their own models at th
   CHECK(contains(j, "\"age_s\":1,\"current\":false"));
   CHECK(state.malformed() == 5);
   CHECK(state.received() == 6);
+
+  // A playback that seeks back forgets the site's states with the rest.
+  state.clear();
+  CHECK(contains(state.json(0, nullptr), "\"own\":false,\"age_s\":null}"));
 }
 
 TEST_CASE("with a site key only verified site states are drawn", "[display][site]") {
