@@ -8,6 +8,7 @@
 #include <mgc/health_counters_t.hpp>
 #include <mgc/loop_timing_t.hpp>
 #include <mgc/machine_state_t.hpp>
+#include <mgc/obstacle_poses_t.hpp>
 #include <mgc/operator_command_t.hpp>
 #include <mgc/operator_guidance_t.hpp>
 #include <mgc/operator_instruction_t.hpp>
@@ -213,6 +214,48 @@ TEST_CASE("machine_state_t has a fixed encoded size", "[unit]") {
   // buffer sized once is always enough.
   mgc::machine_state_t empty{};
   REQUIRE(empty.getEncodedSize() == make_machine_state().getEncodedSize());
+}
+
+static_assert(std::extent_v<decltype(mgc::obstacle_poses_t::x)> == mgc::obstacle_poses_t::MAX_OBSTACLES);
+static_assert(std::extent_v<decltype(mgc::obstacle_poses_t::fix_age)> == mgc::obstacle_poses_t::MAX_OBSTACLES);
+
+TEST_CASE("obstacle_poses_t round-trips every field and has a fixed encoded size", "[unit]") {
+  mgc::obstacle_poses_t sent{};
+  sent.utime = 123'456;
+  sent.num_tracked = 3;
+  sent.num_obstacles = 2;
+  for (int i = 0; i < mgc::obstacle_poses_t::MAX_OBSTACLES; ++i) {
+    sent.obstacle_index[i] = i < 2 ? 4 - i : -1;
+    sent.valid[i] = i == 0;
+    sent.still[i] = i == 1;
+    sent.x[i] = -30.0 + i;
+    sent.y[i] = -6.0 - i;
+    sent.z[i] = 0.25 * i;
+    sent.yaw[i] = -1.5 + 0.1 * i;
+    sent.position_sigma[i] = 0.1 + 0.01 * i;
+    sent.speed[i] = 1.25 * i;
+    sent.fix_age[i] = 0.02 + i;
+  }
+  const Bytes buf = encode_checked(sent);
+  const auto got = decode_checked<mgc::obstacle_poses_t>(buf);
+  REQUIRE(got.utime == sent.utime);
+  REQUIRE(got.num_tracked == 3);
+  REQUIRE(got.num_obstacles == 2);
+  REQUIRE(as_array(got.obstacle_index) == as_array(sent.obstacle_index));
+  REQUIRE(as_array(got.valid) == as_array(sent.valid));
+  REQUIRE(as_array(got.still) == as_array(sent.still));
+  REQUIRE(as_array(got.x) == as_array(sent.x));
+  REQUIRE(as_array(got.y) == as_array(sent.y));
+  REQUIRE(as_array(got.z) == as_array(sent.z));
+  REQUIRE(as_array(got.yaw) == as_array(sent.yaw));
+  REQUIRE(as_array(got.position_sigma) == as_array(sent.position_sigma));
+  REQUIRE(as_array(got.speed) == as_array(sent.speed));
+  REQUIRE(as_array(got.fix_age) == as_array(sent.fix_age));
+  require_truncations_rejected<mgc::obstacle_poses_t>(buf);
+  require_short_buffer_rejected(sent);
+  // Crosses the loop: the size does not depend on the content.
+  REQUIRE(mgc::obstacle_poses_t{}.getEncodedSize() == sent.getEncodedSize());
+  REQUIRE(mgc::obstacle_poses_t::getHash() != mgc::machine_state_t::getHash());
 }
 
 TEST_CASE("operator_guidance_t round-trips every field", "[unit]") {
