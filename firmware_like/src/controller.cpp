@@ -981,6 +981,7 @@ void Controller::fill_snapshot_obstacles() noexcept {
     o.yaw_rad = ever ? tracker.yaw_rad() : kNaN;
     o.position_sigma_m = ever ? tracker.position_sigma_m() : kNaN;
     o.speed_m_s = o.valid && h.window_full ? h.velocity_m_s.norm() : kNaN;
+    o.yaw_rate_rad_s = o.valid && h.window_full ? h.yaw_rate_rad_s : kNaN;
     o.fix_us = ever ? tracker.last_update_us() : 0;
   }
 }

@@ -250,6 +250,7 @@ void FeedPublisher::publish_snapshot(const GuidanceSnapshot& s) {
       poses.yaw[i] = used ? o.yaw_rad : kNaN;
       poses.position_sigma[i] = used ? o.position_sigma_m : kNaN;
       poses.speed[i] = used ? o.speed_m_s : kNaN;
+      poses.yaw_rate[i] = used ? o.yaw_rate_rad_s : kNaN;
       poses.fix_age[i] = used && o.fix_us > 0 ? static_cast<double>(s.utime_us - o.fix_us) * 1e-6 : kNaN;
     }
     publish(channel::kObstaclePoses, poses);

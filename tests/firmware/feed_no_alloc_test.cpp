@@ -31,7 +31,7 @@ TEST_CASE("snapshot push/pop and operator words do not allocate", "[unit]") {
   s->plan.positions[2] = {0.5, 0.2, 3.0, 0.0};
   s->num_tracked = kSnapshotMaxObstacles;
   s->num_obstacles = kSnapshotMaxObstacles;
-  for (auto& o : s->obstacles) o = {1, true, true, {-30.0, -6.0, 0.0}, 0.5, 0.1, 0.0, 1'000};
+  for (auto& o : s->obstacles) o = {1, true, true, {-30.0, -6.0, 0.0}, 0.5, 0.1, 0.0, 0.0, 1'000};
   AcceptedCommand cmd{};
 
   const long before = allocation_count();

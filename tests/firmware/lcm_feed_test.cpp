@@ -278,8 +278,8 @@ TEST_CASE("tracked obstacles go out at 10 Hz with their pose, validity and still
 
   s->num_tracked = 2;
   s->num_obstacles = 2;
-  s->obstacles[0] = {0, true, false, {-30.0, -6.0, 0.0}, -90 * kDeg, 0.12, 1.5, s->utime_us - 40'000};
-  s->obstacles[1] = {3, false, true, {4.0, 5.0, 0.0}, 0.25, 0.3, kNaN, s->utime_us - 2'500'000};
+  s->obstacles[0] = {0, true, false, {-30.0, -6.0, 0.0}, -90 * kDeg, 0.12, 1.5, 0.05, s->utime_us - 40'000};
+  s->obstacles[1] = {3, false, true, {4.0, 5.0, 0.0}, 0.25, 0.3, kNaN, kNaN, s->utime_us - 2'500'000};
   // 100 Hz snapshots over 0.25 s of the publisher's clock: poses at 0, 0.1 and 0.2 s.
   for (int k = 0; k < 25; ++k) {
     REQUIRE(snapshots->try_push(*s));
@@ -298,12 +298,14 @@ TEST_CASE("tracked obstacles go out at 10 Hz with their pose, validity and still
   REQUIRE(m.yaw[0] == Approx(-90 * kDeg));
   REQUIRE(m.position_sigma[0] == 0.12);
   REQUIRE(m.speed[0] == 1.5);
+  REQUIRE(m.yaw_rate[0] == 0.05);
   REQUIRE(m.fix_age[0] == Approx(0.04));
   REQUIRE(m.obstacle_index[1] == 3);
   REQUIRE_FALSE(m.valid[1]);
   REQUIRE(m.still[1]);
   REQUIRE(m.x[1] == 4.0);
   REQUIRE(std::isnan(m.speed[1]));
+  REQUIRE(std::isnan(m.yaw_rate[1]));
   REQUIRE(m.fix_age[1] == Approx(2.5));
   // The unused entries are marked unused.
   REQUIRE(m.obstacle_index[2] == -1);

@@ -234,6 +234,7 @@ TEST_CASE("obstacle_poses_t round-trips every field and has a fixed encoded size
     sent.yaw[i] = -1.5 + 0.1 * i;
     sent.position_sigma[i] = 0.1 + 0.01 * i;
     sent.speed[i] = 1.25 * i;
+    sent.yaw_rate[i] = -0.05 * i;
     sent.fix_age[i] = 0.02 + i;
   }
   const Bytes buf = encode_checked(sent);
@@ -250,6 +251,7 @@ TEST_CASE("obstacle_poses_t round-trips every field and has a fixed encoded size
   REQUIRE(as_array(got.yaw) == as_array(sent.yaw));
   REQUIRE(as_array(got.position_sigma) == as_array(sent.position_sigma));
   REQUIRE(as_array(got.speed) == as_array(sent.speed));
+  REQUIRE(as_array(got.yaw_rate) == as_array(sent.yaw_rate));
   REQUIRE(as_array(got.fix_age) == as_array(sent.fix_age));
   require_truncations_rejected<mgc::obstacle_poses_t>(buf);
   require_short_buffer_rejected(sent);

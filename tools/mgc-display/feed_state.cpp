@@ -243,6 +243,7 @@ void FeedState::write_obstacles(Json& out, const Latest<obstacle_poses_t>& poses
     out.key("yaw_rad").value(m.yaw[i]);
     out.key("sigma_m").value(m.position_sigma[i]);
     out.key("speed_m_s").value(m.speed[i]);
+    out.key("yaw_rate_rad_s").value(m.yaw_rate[i]);
     // The fix's age now: its age when published plus the message's.
     out.key("fix_age_s").value(m.fix_age[i] + age_s(poses.received_us, now_us));
     out.key("parts");

@@ -135,10 +135,10 @@ try:
         return browser.execute_script(obstacle_li) or ["", "", ""]
     check(not browser.find_elements(By.CSS_SELECTOR, "#tracked-obstacles li[data-obstacle-index]"),
           "no tracked obstacle listed before one is published")
-    step("obstacle 0 1 0 -30 -6 -90 1.25")
+    step("obstacle 0 1 0 -30 -6 -90 1.25 4.2")
     shown = wait_for(lambda: obstacle()[0] == "moving" and obstacle()[2], 3)
     status_, words, px = obstacle()
-    check(bool(shown) and words.startswith("crane-2: moving 1.3 m/s at (-30.0, -6.0) m"), "the obstacle listed as moving: " + words)
+    check(bool(shown) and words.startswith("crane-2: moving 1.3 m/s, turning 4.2 deg/s at (-30.0, -6.0) m"), "the obstacle listed as moving: " + words)
     # The colour of the plan view at the carrier's middle: (-30, -8, 1) in the site frame.
     pixel_at = """
       const p = planView.map(arguments[0]);
@@ -164,13 +164,13 @@ try:
       const d = sideView.ctx.getImageData(Math.round(p[0]), Math.round(p[1]), 1, 1).data;
       return [d[0], d[1], d[2], d[3]];""")
     check(magenta(side), "the moving obstacle drawn in the side view: rgba%s" % (tuple(side),))
-    step("obstacle 0 1 1 -30 -6 -90 0")
+    step("obstacle 0 1 1 -30 -6 -90 0 0")
     check(wait_for(lambda: obstacle()[0] == "still" and blue(colour([-30, -8, 1])), 2),
           "a still obstacle drawn blue: %s, rgba%s" % (obstacle()[1], tuple(colour([-30, -8, 1])[:4])))
-    step("obstacle 0 0 1 -30 -6 -90 0")
+    step("obstacle 0 0 1 -30 -6 -90 0 0")
     check(wait_for(lambda: obstacle()[0] == "pose unknown" and not blue(colour([-30, -8, 1])), 2) and
           "pose unknown, last fix" in obstacle()[1], "a lost obstacle: dashed, unfilled, 'pose unknown': " + obstacle()[1])
-    step("obstacle 0 1 0 -30 -6 -90 1.25")
+    step("obstacle 0 1 0 -30 -6 -90 1.25 4.2")
     check(wait_for(lambda: obstacle()[0] == "moving", 2), "the obstacle moving again")
 
     # The site's other machine: the tower crane (machine 2, base at (-40, -10)) at its reported

@@ -46,7 +46,7 @@ trap cleanup EXIT
   printf 'plan 0.5,0.9,30,20;1.2,0.9,30,20;1.2,1.0,30,20;1.2,1.0,30,10\n'
   printf 'guidance 0 1.2 0.7 1 3\n'
   printf 'instruction 7.5 swing left 40 deg, then boom up 4 deg\n'
-  printf 'obstacle 0 1 0 -30 -6 -90 1.25\n'
+  printf 'obstacle 0 1 0 -30 -6 -90 1.25 4.2\n'
   printf 'site 2 1 2.5 20 20\n'
 } >&3
 sleep 1

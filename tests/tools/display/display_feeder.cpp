@@ -8,7 +8,7 @@
 //   state SUPERVISOR LOAD_PCT Q0 Q1 ...   the state that `stream` publishes
 //   stream PERIOD_MS                      publish MGC_MACHINE_STATE every PERIOD_MS (0: stop); each
 //                                         message gets a new utime, and "utime wall_us" goes to SENT_LOG
-//   obstacle INDEX VALID STILL X Y YAW_DEG SPEED   one tracked obstacle that `stream` publishes on
+//   obstacle INDEX VALID STILL X Y YAW_DEG SPEED YAW_RATE_DEG_S   one tracked obstacle that `stream` publishes on
 //                                         MGC_OBSTACLE_POSES with every 10th state (10 Hz at 10 ms)
 //   obstacle none                         no more obstacle poses
 //   site ID PRIORITY Q0 Q1 ...            another machine of the site: `stream` publishes its
@@ -167,11 +167,14 @@ int main(int argc, char** argv) {
         poses = {};
         for (int i = 0; i < mgc::obstacle_poses_t::MAX_OBSTACLES; ++i) {
           poses.obstacle_index[i] = -1;
-          poses.x[i] = poses.y[i] = poses.z[i] = poses.yaw[i] = poses.position_sigma[i] = poses.speed[i] = poses.fix_age[i] = NAN;
+          poses.x[i] = poses.y[i] = poses.z[i] = poses.yaw[i] = poses.position_sigma[i] = poses.speed[i] = poses.yaw_rate[i] =
+              poses.fix_age[i] = NAN;
         }
         poses.num_tracked = poses.num_obstacles = 1;
         poses.obstacle_index[0] = std::stoi(first);
-        s >> valid >> still >> poses.x[0] >> poses.y[0] >> yaw_deg >> poses.speed[0];
+        double yaw_rate_deg_s = 0.0;
+        s >> valid >> still >> poses.x[0] >> poses.y[0] >> yaw_deg >> poses.speed[0] >> yaw_rate_deg_s;
+        poses.yaw_rate[0] = yaw_rate_deg_s * M_PI / 180.0;
         poses.valid[0] = valid != 0;
         poses.still[0] = still != 0;
         poses.z[0] = 0.0;

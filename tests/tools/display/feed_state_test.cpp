@@ -216,7 +216,7 @@ mgc::obstacle_poses_t crane_two_poses() {
   m.num_obstacles = 1;
   for (int i = 0; i < mgc::obstacle_poses_t::MAX_OBSTACLES; ++i) {
     m.obstacle_index[i] = -1;
-    m.x[i] = m.y[i] = m.z[i] = m.yaw[i] = m.position_sigma[i] = m.speed[i] = m.fix_age[i] = NAN;
+    m.x[i] = m.y[i] = m.z[i] = m.yaw[i] = m.position_sigma[i] = m.speed[i] = m.yaw_rate[i] = m.fix_age[i] = NAN;
   }
   m.obstacle_index[0] = 0;
   m.valid[0] = true;
@@ -227,6 +227,7 @@ mgc::obstacle_poses_t crane_two_poses() {
   m.yaw[0] = -M_PI / 2;
   m.position_sigma[0] = 0.15;
   m.speed[0] = 1.25;
+  m.yaw_rate[0] = -0.0625;
   m.fix_age[0] = 0.05;
   return m;
 }
@@ -250,7 +251,7 @@ TEST_CASE("tracked obstacles are drawn from the scenario's parts at their pose, 
   CHECK(contains(j, "\"obstacles\":{\"age_s\":0.1,\"current\":true,\"num_tracked\":1,\"list\":[{\"index\":0,\"name\":\"crane-2\""));
   CHECK(status_of(j) == "moving");
   CHECK(contains(j, "\"position\":[-30.000,-6.000,0.000]"));
-  CHECK(contains(j, "\"speed_m_s\":1.25"));
+  CHECK(contains(j, "\"speed_m_s\":1.25,\"yaw_rate_rad_s\":-0.0625"));
   CHECK(contains(j, "\"fix_age_s\":0.15"));  // 0.05 s when published, 0.1 s since
   // The first part (the carrier: 13 x 2.6 x 2 m at (2, 0, 1) in crane 2's frame) where the
   // project's outline puts it at that pose: yawed -90 deg, its long side along y, south of x = -30.

@@ -206,7 +206,10 @@ function drawObstacles(view) {
 // The obstacle's state in words; while the feed is stale nothing is current.
 function obstacleWords(o) {
   if (stale) return 'as last reported (not current)';
-  if (o.status === 'moving') return 'moving' + (Number.isFinite(o.speed_m_s) ? ' ' + o.speed_m_s.toFixed(1) + ' m/s' : '');
+  if (o.status === 'moving') {
+    return 'moving' + (Number.isFinite(o.speed_m_s) ? ' ' + o.speed_m_s.toFixed(1) + ' m/s' : '') +
+      (Number.isFinite(o.yaw_rate_rad_s) ? ', turning ' + (o.yaw_rate_rad_s * 180 / Math.PI).toFixed(1) + ' deg/s' : '');
+  }
   if (o.status === 'still') return 'still';
   if (o.status === 'pose unknown') return 'pose unknown' + (Number.isFinite(o.fix_age_s) ? ', last fix ' + o.fix_age_s.toFixed(1) + ' s ago' : '');
   if (o.status === 'not current') return 'pose unknown, no obstacle poses for ' + last.obstacles.age_s.toFixed(1) + ' s';

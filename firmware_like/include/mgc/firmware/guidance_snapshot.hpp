@@ -55,6 +55,7 @@ struct SnapshotObstacle {
   double yaw_rad = kNaN;              //!< about the site's z [rad]
   double position_sigma_m = kNaN;     //!< 1-sigma [m]
   double speed_m_s = kNaN;            //!< frame origin over the speed window, NaN until it fills [m/s]
+  double yaw_rate_rad_s = kNaN;       //!< about z over the speed window, NaN until it fills [rad/s]
   std::int64_t fix_us = 0;            //!< last accepted tag fix, 0 = never [µs]
 };
 
