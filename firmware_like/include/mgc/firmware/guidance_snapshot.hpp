@@ -54,8 +54,8 @@ struct SnapshotObstacle {
   std::array<double, 3> position_m{kNaN, kNaN, kNaN};  //!< frame origin, site frame [m]
   double yaw_rad = kNaN;              //!< about the site's z [rad]
   double position_sigma_m = kNaN;     //!< 1-sigma [m]
-  double speed_m_s = kNaN;            //!< frame origin over the speed window, NaN until it fills [m/s]
-  double yaw_rate_rad_s = kNaN;       //!< about z over the speed window, NaN until it fills [rad/s]
+  double speed_m_s = kNaN;            //!< frame origin, as the stop check estimates it; NaN until its window fills [m/s]
+  double yaw_rate_rad_s = kNaN;       //!< about z, likewise [rad/s]
   std::int64_t fix_us = 0;            //!< last accepted tag fix, 0 = never [µs]
 };
 
