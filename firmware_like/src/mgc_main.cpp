@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // mgc: the machine-guidance controller. Runs the control cycle (docs/controller.md) on a CAN bus
 // against the machine (or mgc-sim), publishes the operator feed over LCM and takes operator
-// commands from it.
+// commands from it. With --site, one member of a coordinated site (docs/site.md): it also
+// exchanges signed site messages with the other machines' controllers.
 #include <CLI/CLI.hpp>
 #include <sodium.h>
 
@@ -23,10 +24,12 @@
 #include "mgc/firmware/controller.hpp"
 #include "mgc/firmware/cyclic_executive.hpp"
 #include "mgc/firmware/lcm_feed.hpp"
+#include "mgc/firmware/site_channel.hpp"
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/clock.hpp"
 #include "mgc/hal/hal.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/io/site_loader.hpp"
 #include "mgc/tools/cli_checks.hpp"
 
 namespace {
@@ -72,7 +75,22 @@ int main(int argc, char** argv) {
   int watchdog_misses = 10;
   std::string black_box_file;
   double black_box_minutes = firmware::black_box::kDefaultMinutes;
-  app.add_option("--scenario", scenario_file, "scenario file (YAML, docs/scenario-format.md)")->required();
+  std::string site_file;
+  std::int32_t machine_id = 0;
+  std::string site_key_file;
+  auto* scenario_opt = app.add_option("--scenario", scenario_file, "scenario file (YAML, docs/scenario-format.md)");
+  auto* site_opt = app.add_option("--site", site_file,
+                                  "site file (docs/scenario-format.md, Site file): drive one machine of the site, its first "
+                                  "lift, as a member of the site channel (docs/site.md); instead of --scenario");
+  site_opt->excludes(scenario_opt);
+  app.add_option("--machine-id", machine_id, "with --site: this machine's id in the site file")->needs(site_opt);
+  app.add_option("--site-key", site_key_file,
+                 "with --site: the site key (32 raw bytes; default: the site file's site_key_file)")
+      ->needs(site_opt);
+  std::string site_lcm_url = firmware::kDefaultSiteLcmUrl;
+  app.add_option("--site-lcm-url", site_lcm_url, "with --site: LCM provider of the site channel, shared by the site's controllers")
+      ->capture_default_str()
+      ->needs(site_opt);
   app.add_option("--bus", bus_url, "CAN bus URL: udp:HOST:PORT,peer=HOST:PORT, socketcan:IFNAME, loop:NAME (docs/protocol.md)")
       ->capture_default_str();
   app.add_option("--rate-hz", rate_hz, "control rate [Hz]")->capture_default_str()->check(CLI::Range(10.0, 1000.0));
@@ -113,12 +131,45 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  if (scenario_file.empty() && site_file.empty()) {
+    std::fprintf(stderr, "mgc: --scenario or --site is required (see --help)\n");
+    return 2;
+  }
+  if (!site_file.empty() && app.count("--machine-id") == 0) {
+    std::fprintf(stderr, "mgc: --machine-id is required with --site (see --help)\n");
+    return 2;
+  }
   planning::Scenario scenario;
+  std::unique_ptr<firmware::SiteMemberConfig> site_member;
+  std::unique_ptr<firmware::SiteKey> site_key;
   try {
-    scenario = planning::io::load_scenario(scenario_file);
+    if (site_file.empty()) {
+      scenario = planning::io::load_scenario(scenario_file);
+    } else {
+      site_member = std::make_unique<firmware::SiteMemberConfig>();
+      site_member->site = planning::io::load_site(site_file);
+      site_member->machine_id = machine_id;
+      const std::size_t index = planning::io::site_machine_index(site_member->site, machine_id);
+      scenario = planning::lift_scenario(site_member->site, index, 0);
+      if (app.count("--bus") == 0) bus_url = site_member->site.machines[index].bus.controller_url();
+    }
   } catch (const planning::io::InputError& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;
+  }
+  if (site_member) {
+    if (site_key_file.empty() && site_member->site.key_file) site_key_file = *site_member->site.key_file;
+    if (site_key_file.empty()) {
+      std::fprintf(stderr, "mgc: --site-key: required with --site, as %s names no site_key_file; expected a 32-byte key file\n",
+                   site_file.c_str());
+      return 2;
+    }
+    try {
+      site_key = std::make_unique<firmware::SiteKey>(firmware::load_site_key(site_key_file));
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "mgc: --site-key: %s\n", e.what());
+      return 2;
+    }
   }
   if (scenario.dual_crane) {
     std::fprintf(stderr, "mgc: %s: a dual-crane lift has no bus plan; mgc drives one machine\n", scenario_file.c_str());
@@ -151,7 +202,7 @@ int main(int argc, char** argv) {
   try {
     firmware::ControllerConfig config;
     config.replanner = replanner;
-    firmware::Controller controller(scenario, config);
+    firmware::Controller controller(scenario, config, site_member.get());
     std::vector<double> vmax;
     for (const auto& j : scenario.machine.joints) vmax.push_back(j.max_velocity);
     std::vector<std::string> joint_names;
@@ -181,6 +232,24 @@ int main(int argc, char** argv) {
     feed_config.command_state_path = command_state_file;
     firmware::FeedPublisher feed(feed_config, *key, snapshots, commands);
 
+    // The site channel: its own LCM instance and thread; the loop reads what it verified from
+    // fixed-size inputs, filled from lock-free queues (docs/site.md, "mgc on a site").
+    std::unique_ptr<firmware::SiteChannel> site_channel;
+    std::unique_ptr<firmware::SiteInputs> site_inputs;
+    std::int32_t site_priority = 0;
+    if (site_member) {
+      firmware::SiteChannelConfig channel_config;
+      channel_config.lcm_url = site_lcm_url;
+      channel_config.max_skew_us = site_member->rules.max_skew_us;
+      const firmware::SiteRoster roster = firmware::make_site_roster(site_member->site);
+      site_channel = std::make_unique<firmware::SiteChannel>(channel_config, *site_key, roster, machine_id);
+      site_inputs = std::make_unique<firmware::SiteInputs>();
+      site_priority = roster.machines[static_cast<std::size_t>(roster.index_of(machine_id))].priority;
+    }
+    std::int64_t next_site_state_us = 0;
+    std::int64_t site_plan_posted_us = 0;
+    std::uint64_t site_plan_version_posted = 0;
+
     firmware::MonotonicLoopClock loop_clock;
     firmware::CyclicExecutive executive(loop_clock, {period_us, watchdog_misses});
 
@@ -199,6 +268,10 @@ int main(int argc, char** argv) {
       std::printf("mgc: %s on %s, bus %s, %.0f Hz, re-planner %s, LCM %s%s\n", scenario.machine.name.c_str(),
                   scenario.name.c_str(), opened.bus->url().c_str(), rate_hz, replanner.c_str(), lcm_url.c_str(),
                   key_file.empty() ? " (no key: LCM goals refused)" : "");
+      if (site_member) {
+        std::printf("mgc: site %s: machine %d, priority %d, %zu machines, site channel on %s\n", site_member->site.name.c_str(), machine_id,
+                    site_priority, site_member->site.machines.size(), site_lcm_url.c_str());
+      }
       if (fifo_priority > 0 || lock_memory) {
         std::printf("mgc: real-time: fifo %s, memory lock %s%s%s\n", rt.fifo ? "yes" : "no", rt.memory_locked ? "yes" : "no",
                     rt.detail.empty() ? "" : ": ", rt.detail.c_str());
@@ -208,6 +281,7 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     feed.start();
+    if (site_channel) site_channel->start();
     if (black_box) black_box->start();
     std::uint64_t cycles_run = 0;
 
@@ -252,7 +326,26 @@ int main(int argc, char** argv) {
 
       const std::int64_t step_dt_us = timing.index == 0 ? period_us : timing.dt_us;
       const bool watchdog_tripped = executive.watchdog_tripped();
-      const firmware::ControllerOutput out = controller.step(s, step_dt_us, cmd, watchdog_tripped);
+      if (site_channel) site_channel->take(*site_inputs, timing.start_us);
+      const firmware::ControllerOutput out = site_channel ? controller.step(s, step_dt_us, cmd, watchdog_tripped, *site_inputs)
+                                                       : controller.step(s, step_dt_us, cmd, watchdog_tripped);
+      if (site_channel) {
+        // The state at 20 Hz on the loop's grid, the plan when it changes and again every second.
+        // Not before the machine's pose is known (INIT): a state of zeros is no pose, and the
+        // others keep treating this machine as never heard until then.
+        const bool pose_known = controller.supervisor().state() != guidance::SupervisorState::Init;
+        if (pose_known && timing.start_us >= next_site_state_us) {
+          (void)site_channel->post_state(controller.site_state());
+          next_site_state_us = std::max(next_site_state_us + firmware::kSiteStatePeriod_us, timing.start_us);
+        }
+        const std::uint64_t version = controller.site_plan_version();
+        if (version > 0 && (version != site_plan_version_posted || timing.start_us - site_plan_posted_us >= firmware::kSitePlanPeriod_us)) {
+          if (site_channel->post_plan(controller.site_plan())) {
+            site_plan_version_posted = version;
+            site_plan_posted_us = timing.start_us;
+          }
+        }
+      }
       if (out.start_nodes) (void)hal.send_nmt(hal::canopen::NmtCommand::Start, 0);
       if (out.reset_watchdog) executive.reset_watchdog();
       hal.set_pilot_enabled(out.pilot_enable);
@@ -328,6 +421,7 @@ int main(int argc, char** argv) {
     (void)hal.write(zero, bus_clock.now_us());
     feed.run_once(0);
     feed.stop();
+    if (site_channel) site_channel->stop();
     if (black_box) black_box->close();
 
     if (!trace_csv.empty()) {
@@ -433,6 +527,27 @@ int main(int argc, char** argv) {
       sep = ", ";
     }
     std::printf("%s, %" PRIu64 " refusal alerts\n", sep[0] == ',' ? ")" : "", refusals.alerts());
+    if (site_channel) {
+      const firmware::SiteChannelCounters& lc = site_channel->counters();
+      const firmware::SiteVerifier& v = site_channel->verifier();
+      std::printf("mgc: site: machine %d (priority %d) of %s: %" PRIu64 " states and %" PRIu64 " plans published, %" PRIu64
+                  " messages accepted, %" PRIu64 " refused",
+                  machine_id, site_priority, site_member->site.name.c_str(), lc.states_published.load(), lc.plans_published.load(),
+                  v.count(firmware::SiteReason::Accepted), v.refused());
+      const char* site_sep = " (";
+      for (std::size_t r = 1; r < firmware::kNumSiteReasons; ++r) {
+        const auto reason = static_cast<firmware::SiteReason>(r);
+        if (v.count(reason) == 0) continue;
+        std::printf("%s%s %" PRIu64, site_sep, firmware::site_reason_name(reason), v.count(reason));
+        site_sep = ", ";
+      }
+      std::printf("%s, %" PRIu64 " refusal alerts, %" PRIu64 " own echoes, %" PRIu64 " queue drops, %" PRIu64 " publish errors\n",
+                  site_sep[0] == ',' ? ")" : "", lc.refusal_alerts.load(), lc.own_echoes.load(), site_channel->queue_drops(),
+                  lc.publish_errors.load());
+      std::printf("mgc: site rules: %d stops (%" PRIu64 " cycles), slowed %" PRIu64 " cycles, %d re-plans for a higher-priority machine, "
+                  "%d stale alerts, least gap %.2f m\n",
+                  st.site_stops, st.site_stop_cycles, st.site_slow_cycles, st.site_replans, st.site_stale_alerts, st.site_min_gap_m);
+    }
     const hal::CodecCounters& codec = hal.snapshot().codec;
     std::printf("mgc: bus: %" PRIu64 " frames decoded, %" PRIu64 " unknown COB-ids, %" PRIu64 " malformed (wrong length %" PRIu64
                 ", wrong id %" PRIu64 ", out of range %" PRIu64 ", reserved bits %" PRIu64 ", other %" PRIu64 "), %" PRIu64

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// mgc-sim: the simulated crane or excavator on a CAN bus, in real time. docs/simulator.md.
+// mgc-sim: the simulated crane or excavator on a CAN bus, in real time. docs/simulator.md; with
+// --site, one machine of a coordinated site on its own bus (docs/site.md).
 #include <CLI/CLI.hpp>
 
 #include <boost/lockfree/spsc_queue.hpp>
@@ -28,6 +29,7 @@
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/clock.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/io/site_loader.hpp"
 #include "mgc/sim/simulator.hpp"
 #include "mgc/sim/truth_monitor.hpp"
 #include "mgc/tools/cli_checks.hpp"
@@ -386,7 +388,14 @@ int main(int argc, char** argv) {
   double time_offset_s = -1.0;
   bool quiet = false;
   bool mlock = false;
-  app.add_option("--scenario", scenario_file, "scenario file (YAML, docs/scenario-format.md)")->required();
+  std::string site_file;
+  std::int32_t machine_id = 0;
+  auto* scenario_opt = app.add_option("--scenario", scenario_file, "scenario file (YAML, docs/scenario-format.md)");
+  app.add_option("--site", site_file,
+                 "site file (docs/site.md): simulate one machine of the site, its first lift's start, on the bus the "
+                 "site file gives it; instead of --scenario")
+      ->excludes(scenario_opt);
+  app.add_option("--machine-id", machine_id, "with --site: the machine's id in the site file");
   app.add_option("--bus", bus_url, "CAN bus URL: loop:, udp:HOST:PORT,peer=HOST:PORT, socketcan:IFNAME (docs/protocol.md)")
       ->capture_default_str();
   app.add_option("--duration", duration_s, "stop after this many seconds (default: until SIGINT/SIGTERM)")
@@ -422,7 +431,23 @@ int main(int argc, char** argv) {
   mgc::sim::SimConfig config;
   config.seed = seed;
   try {
-    scenario = mgc::planning::io::load_scenario(scenario_file);
+    if (scenario_file.empty() == site_file.empty()) {
+      std::fprintf(stderr, "mgc-sim: --scenario or --site is required (see --help)\n");
+      return 2;
+    }
+    if (site_file.empty() != (app.count("--machine-id") == 0)) {
+      std::fprintf(stderr, "mgc-sim: --machine-id goes with --site, and --site needs it (see --help)\n");
+      return 2;
+    }
+    if (site_file.empty()) {
+      scenario = mgc::planning::io::load_scenario(scenario_file);
+    } else {
+      // The machine alone: the other machines of the site are not in this simulator (docs/site.md).
+      const mgc::planning::Site site = mgc::planning::io::load_site(site_file);
+      const std::size_t index = mgc::planning::io::site_machine_index(site, machine_id);
+      scenario = mgc::planning::lift_scenario(site, index, 0);
+      if (app.count("--bus") == 0) bus_url = site.machines[index].bus.machine_url();
+    }
     mgc::sim::apply_simulation_spec(scenario, config);
     for (const std::string& text : fault_texts) config.faults.push_back(mgc::sim::parse_machine_fault(text, scenario.machine.joints));
   } catch (const mgc::planning::io::InputError& e) {
