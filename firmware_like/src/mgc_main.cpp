@@ -240,6 +240,7 @@ int main(int argc, char** argv) {
     if (site_member) {
       firmware::SiteChannelConfig channel_config;
       channel_config.lcm_url = site_lcm_url;
+      channel_config.alert_lcm_url = lcm_url;
       channel_config.max_skew_us = site_member->rules.max_skew_us;
       const firmware::SiteRoster roster = firmware::make_site_roster(site_member->site);
       site_channel = std::make_unique<firmware::SiteChannel>(channel_config, *site_key, roster, machine_id);

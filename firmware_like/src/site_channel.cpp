@@ -17,6 +17,10 @@ SiteChannel::SiteChannel(const SiteChannelConfig& config, const SiteKey& key, co
     throw std::runtime_error("LCM: cannot open provider " + config.lcm_url +
                              " for the site channel (for udpm on loopback: a multicast route on lo, see docs/operator-feed.md)");
   }
+  if (!config_.alert_lcm_url.empty() && config_.alert_lcm_url != config_.lcm_url) {
+    alert_lcm_ = std::make_unique<lcm::LCM>(config_.alert_lcm_url);
+    if (!alert_lcm_->good()) throw std::runtime_error("LCM: cannot open provider " + config_.alert_lcm_url + " for the site channel's alerts");
+  }
   // Sequences start at the real-time clock: a restarted mgc continues above what it sent before,
   // so the other machines' verifiers do not take its first messages for replays.
   state_sequence_ = config_.realtime_us();
@@ -138,7 +142,10 @@ void SiteChannel::refused(SiteReason reason, std::int32_t machine_id, std::int64
   a.min_clearance = std::numeric_limits<double>::quiet_NaN();
   std::array<std::uint8_t, 256> buf{};
   const int len = a.encode(buf.data(), 0, static_cast<int>(buf.size()));
-  if (len > 0) publish_bytes(channel::kAlert, buf.data(), len);
+  if (len > 0) {
+    lcm::LCM& out = alert_lcm_ ? *alert_lcm_ : lcm_;
+    if (out.publish(channel::kAlert, buf.data(), static_cast<unsigned>(len)) != 0) counters_.publish_errors.fetch_add(1, std::memory_order_relaxed);
+  }
   counters_.refusal_alerts.fetch_add(1, std::memory_order_relaxed);
 }
 

@@ -26,6 +26,7 @@
 #include "loop_bench.hpp"
 #include "planning_bench.hpp"
 #include "safety_bench.hpp"
+#include "site_bench.hpp"
 #include "sites_bench.hpp"
 #include "trajectory_bench.hpp"
 #include "replan_bench.hpp"
@@ -69,7 +70,7 @@ int main(int argc, char** argv) {
   mgc::bench::OmplOptions ompl;
   mgc::bench::CampaignOptions campaign;
   for (const auto& [name, run] : planning_suites()) names += std::string(names.empty() ? "" : ", ") + name;
-  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), campaign (randomized lifts judged in the true state), all (thesis, zhang, langari, sites, kim, campaign), bus (fieldbus), trajectory, safety or loop (control cycle)");
+  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), campaign (randomized lifts judged in the true state), site (two cranes crossing, stepped time), all (thesis, zhang, langari, sites, kim, campaign, site), bus (fieldbus), trajectory, safety or loop (control cycle)");
   app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51; kim 100); sites: seeds per site (6)")
       ->check(mgc::tools::positive_number());
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
@@ -112,9 +113,9 @@ int main(int argc, char** argv) {
     if ((suite_name == "all" && suite.first != "replan") || suite_name == suite.first) chosen.push_back(suite);
   }
   const bool other_suite = suite_name == "bus" || suite_name == "trajectory" || suite_name == "safety" ||
-                           suite_name == "loop" || suite_name == "kim" || suite_name == "campaign";
+                           suite_name == "loop" || suite_name == "kim" || suite_name == "campaign" || suite_name == "site";
   if (chosen.empty() && !other_suite) {
-    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, campaign, all, bus, trajectory, safety, loop; got '%s'\n",
+    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, campaign, site, all, bus, trajectory, safety, loop; got '%s'\n",
                  names.c_str(), suite_name.c_str());
     return 2;
   }
@@ -160,6 +161,8 @@ int main(int argc, char** argv) {
     }
     if (suite_name == "kim") return mgc::bench::run_kim_suite(kim);
     if (suite_name == "campaign") return mgc::bench::run_campaign_suite(campaign);
+    const mgc::bench::SiteBenchOptions site_options{scenarios_dir, out_dir, command};
+    if (suite_name == "site") return mgc::bench::run_site_suite(site_options);
     // OMPL's global seed takes effect only before its first random generator exists: set it now.
     if (!mgc::bench::seed_ompl(static_cast<std::uint32_t>(first_seed))) {
       std::fprintf(stderr, "mgc-bench: OMPL refused the global seed; BIT* runs will not repeat\n");
@@ -177,11 +180,13 @@ int main(int argc, char** argv) {
       if (code != 0) exit_code = code;
       const int campaign_code = mgc::bench::run_campaign_suite(campaign);
       if (campaign_code != 0) exit_code = campaign_code;
+      const int site_code = mgc::bench::run_site_suite(site_options);
+      if (site_code != 0) exit_code = site_code;
     }
     if (exit_code == 0) {
       // The tables first, where both streams go to one log.
       std::fflush(stdout);
-      std::fprintf(stderr, "mgc-bench: %zu suite(s) in %.1f s\n", chosen.size() + (suite_name == "all" ? 2 : 0),
+      std::fprintf(stderr, "mgc-bench: %zu suite(s) in %.1f s\n", chosen.size() + (suite_name == "all" ? 3 : 0),
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
     return exit_code;

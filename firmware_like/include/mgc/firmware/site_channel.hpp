@@ -7,6 +7,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include <array>
+#include <memory>
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -52,6 +53,9 @@ struct VerifiedSitePlan {
 
 struct SiteChannelConfig {
   std::string lcm_url = kDefaultSiteLcmUrl;
+  //! Where the alerts for refused messages go: the operator feed's provider, so that the operator
+  //! sees them; empty: the site channel's own.
+  std::string alert_lcm_url;
   int receive_timeout_ms = 5;  //!< longest wait for a message per iteration [ms]
   //! At most one alert for refused site messages per period. [µs]
   std::int64_t refusal_alert_period_us = 1'000'000;
@@ -114,6 +118,7 @@ class SiteChannel {
 
   SiteChannelConfig config_;
   lcm::LCM lcm_;
+  std::unique_ptr<lcm::LCM> alert_lcm_;  //!< null: alerts on lcm_
   SiteKey key_;
   SiteVerifier verifier_;
   std::int32_t my_id_;
@@ -137,7 +142,7 @@ class SiteChannel {
 
   //! The last few datagrams published of one type: one received equal to one of them is this
   //! process's own message looped back by multicast, not a machine posing as this one. Several,
-  //! because the loop may post two before the thread reads the first one's echo.
+  //! because the loop may post several before the thread reads the first one's echo.
   template <std::size_t Bytes, std::size_t Count>
   struct SentRing {
     std::array<std::array<std::uint8_t, Bytes>, Count> bytes{};
@@ -147,8 +152,9 @@ class SiteChannel {
     void commit(int len) noexcept { size[next++ % Count] = static_cast<std::uint32_t>(len); }
     [[nodiscard]] bool contains(const void* data, std::uint32_t len) const noexcept;
   };
-  SentRing<512, 4> sent_states_;   // site_state_t: 286 bytes
-  SentRing<8192, 2> sent_plans_;   // site_plan_t: 4,683 bytes
+  // As many as a full outgoing queue publishes in one burst, and as many again.
+  SentRing<512, 2 * kStatesOut> sent_states_;  // site_state_t: 286 bytes
+  SentRing<8192, 2 * kPlansOut> sent_plans_;   // site_plan_t: 4,683 bytes
   std::int64_t state_sequence_ = 0;
   std::int64_t plan_sequence_ = 0;
   std::int64_t last_alert_us_ = 0;
