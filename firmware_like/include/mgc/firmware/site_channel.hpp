@@ -106,6 +106,8 @@ class SiteChannel {
   void take(SiteInputs& inputs, std::int64_t now_us) noexcept;
 
   [[nodiscard]] const SiteChannelCounters& counters() const noexcept { return counters_; }
+  //! The site channel's LCM instance (tests publish into a memq:// one and subscribe to it).
+  [[nodiscard]] lcm::LCM& lcm() noexcept { return lcm_; }
   [[nodiscard]] const SiteVerifier& verifier() const noexcept { return verifier_; }
   //! Messages the loop could not post or the I/O thread could not hand over (full queues). [-]
   [[nodiscard]] std::uint64_t queue_drops() const noexcept;
