@@ -18,7 +18,8 @@ struct SiteBenchOptions {
 //! on the site rig (mgc_site_rig), the tower crane's lift started at each offset of the sweep after
 //! the TMS870's; per offset whether each lift completed, its time against the machine alone, the
 //! least true clearance between the machines, the re-plans and the site's stops. Returns the exit
-//! code: 0 when every lift of the sweep completed without contact, 1 otherwise.
+//! code (0 once it ran: lifts not done are in its table); a site file that does not load throws
+//! planning::io::InputError.
 int run_site_suite(const SiteBenchOptions& options);
 
 }  // namespace mgc::bench
