@@ -1235,10 +1235,12 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
       }
     }
   }
+  double my_actual_m_s = 0.0;
   for (int j = 0; j < n_; ++j) {
     const auto k = static_cast<std::size_t>(j);
     const planning::JointSpec& spec = model_->joints()[k];
     double v = std::abs(limiter_.velocity()[k]) > std::abs(velocity_[k]) ? limiter_.velocity()[k] : velocity_[k];
+    my_actual_m_s += model_->displacement_bound(j) * std::abs(v);
     if (following_ && target_ < path_size_ && j == next_joint) {
       const double toward = target_unwrapped_[j] - q_unwrapped_[j];
       const double intended = std::copysign(follow_limits_[k].max_velocity, toward);
@@ -1250,6 +1252,31 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
     my_reach_m += bound * v * v / (2.0 * spec.max_acceleration);
     my_bound_m_s += bound * spec.max_velocity;
   }
+  // Held at rest (the site waits me, or I have not started yet), I do not take up my way at full
+  // speed at once: carried forward from rest under my joints' accelerations, as another machine
+  // at rest is. At full speed from the first instant, a machine that waits would see itself
+  // braking from full speed where its way passes near the other, and wait for it while the other
+  // waits for it: a standoff.
+  const bool me_at_rest = my_actual_m_s < kSiteRestSpeedMS;
+  const auto carried = [&](int j, double tau_s) noexcept {
+    const double v = site_v_[j];
+    if (!me_at_rest) return v * tau_s;
+    const double a = model_->joints()[static_cast<std::size_t>(j)].max_acceleration;
+    const double ramp_s = std::abs(v) / a;
+    const double d = tau_s <= ramp_s ? 0.5 * a * tau_s * tau_s : std::abs(v) * (tau_s - 0.5 * ramp_s);
+    return std::copysign(d, v);
+  };
+  // My stop travel's reach at tau_s, along that motion. [m]
+  const auto my_reach_at = [&](double tau_s) noexcept {
+    if (!me_at_rest) return my_reach_m;
+    double reach_m = 0.0;
+    for (int j = 0; j < n_; ++j) {
+      const double a = model_->joints()[static_cast<std::size_t>(j)].max_acceleration;
+      const double v = std::min(std::abs(site_v_[j]), a * tau_s);
+      reach_m += model_->displacement_bound(j) * v * v / (2.0 * a);
+    }
+    return reach_m;
+  };
   const bool planning_now = supervisor_.state() == guidance::SupervisorState::Planning ||
                             supervisor_.state() == guidance::SupervisorState::Replanning;
   bool stale_stop = false;
@@ -1331,19 +1358,19 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
       double between_m = my_speed_m_s * step_s;
       for (int j = 0; j < nq; ++j) between_m += p.model->displacement_bound(j) * std::abs(site_q2_[j] - site_q_[j]);
       if (tau_s == 0.0) between_m += peer_speed_m_s * step_s;
-      for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + site_v_[j] * tau_s;
+      for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, tau_s);
       const double start_m = at_rest ? start_reach_m(t0_s + tau_s + skew_s) : 0.0;
-      const double gap_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_) - my_reach_m;
+      const double gap_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_) - my_reach_at(tau_s);
       if (tau_s == 0.0) {
         stats_.site_min_gap_m = std::min(stats_.site_min_gap_m, gap_m);
         // Nothing either can do within the horizon closes a gap this wide.
-        if (gap_m - horizon_s * (my_bound_m_s + p.max_point_speed_m_s) > margin_m) break;
+        if (gap_m - horizon_s * (my_bound_m_s + p.max_point_speed_m_s) - (my_reach_at(horizon_s) - my_reach_at(0.0)) > margin_m) break;
       }
       if (gap_m <= margin_m) {
         // Only my motion toward it is stopped: where my way leads apart (as against standing
         // still, a step on), stopping would keep me in its way.
         const double probe_s = std::max(tau_s, step_s);
-        for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + site_v_[j] * probe_s;
+        for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, probe_s);
         const double moving_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_);
         const double still_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, q_wrapped_);
         if (moving_m > still_m + kSiteApartM) continue;
