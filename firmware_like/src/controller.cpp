@@ -1235,12 +1235,10 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
       }
     }
   }
-  double my_actual_m_s = 0.0;
   for (int j = 0; j < n_; ++j) {
     const auto k = static_cast<std::size_t>(j);
     const planning::JointSpec& spec = model_->joints()[k];
     double v = std::abs(limiter_.velocity()[k]) > std::abs(velocity_[k]) ? limiter_.velocity()[k] : velocity_[k];
-    my_actual_m_s += model_->displacement_bound(j) * std::abs(v);
     if (following_ && target_ < path_size_ && j == next_joint) {
       const double toward = target_unwrapped_[j] - q_unwrapped_[j];
       const double intended = std::copysign(follow_limits_[k].max_velocity, toward);
@@ -1252,27 +1250,30 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
     my_reach_m += bound * v * v / (2.0 * spec.max_acceleration);
     my_bound_m_s += bound * spec.max_velocity;
   }
-  // Held at rest (the site waits me, or I have not started yet), I do not take up my way at full
-  // speed at once: carried forward from rest under my joints' accelerations, as another machine
-  // at rest is. At full speed from the first instant, a machine that waits would see itself
-  // braking from full speed where its way passes near the other, and wait for it while the other
-  // waits for it: a standoff.
-  const bool me_at_rest = my_actual_m_s < kSiteRestSpeedMS;
-  const auto carried = [&](int j, double tau_s) noexcept {
-    const double v = site_v_[j];
-    if (!me_at_rest) return v * tau_s;
-    const double a = model_->joints()[static_cast<std::size_t>(j)].max_acceleration;
-    const double ramp_s = std::abs(v) / a;
-    const double d = tau_s <= ramp_s ? 0.5 * a * tau_s * tau_s : std::abs(v) * (tau_s - 0.5 * ramp_s);
-    return std::copysign(d, v);
+  // My way is taken up from the speed I have now under my joints' accelerations, not at full
+  // speed from the first instant: held at rest by the site, a machine carried at full speed would
+  // see itself braking from full speed where its way passes near the other, and wait for it while
+  // the other, stopped for it, waits too (a standoff).
+  const auto speed_now = [&](int j) noexcept {
+    const auto k = static_cast<std::size_t>(j);
+    const double v = std::abs(limiter_.velocity()[k]) > std::abs(velocity_[k]) ? limiter_.velocity()[k] : velocity_[k];
+    // Only a speed the way's direction: a joint still braking the other way starts from rest.
+    return v * site_v_[j] > 0.0 ? std::min(std::abs(v), std::abs(site_v_[j])) : 0.0;
   };
-  // My stop travel's reach at tau_s, along that motion. [m]
+  const auto carried = [&](int j, double tau_s) noexcept {
+    const double v = std::abs(site_v_[j]);
+    const double v0 = speed_now(j);
+    const double a = model_->joints()[static_cast<std::size_t>(j)].max_acceleration;
+    const double ramp_s = (v - v0) / a;
+    const double d = tau_s <= ramp_s ? v0 * tau_s + 0.5 * a * tau_s * tau_s : v0 * ramp_s + 0.5 * a * ramp_s * ramp_s + v * (tau_s - ramp_s);
+    return std::copysign(d, site_v_[j]);
+  };
+  // My stop travel's reach at tau_s along that way, at the speed reached by then. [m]
   const auto my_reach_at = [&](double tau_s) noexcept {
-    if (!me_at_rest) return my_reach_m;
     double reach_m = 0.0;
     for (int j = 0; j < n_; ++j) {
       const double a = model_->joints()[static_cast<std::size_t>(j)].max_acceleration;
-      const double v = std::min(std::abs(site_v_[j]), a * tau_s);
+      const double v = std::min(std::abs(site_v_[j]), speed_now(j) + a * tau_s);
       reach_m += model_->displacement_bound(j) * v * v / (2.0 * a);
     }
     return reach_m;
