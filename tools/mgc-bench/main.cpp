@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
   const bool other_suite = suite_name == "bus" || suite_name == "trajectory" || suite_name == "safety" ||
                            suite_name == "loop" || suite_name == "kim" || suite_name == "campaign" || suite_name == "site";
   if (chosen.empty() && !other_suite) {
-    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, campaign, site, all, bus, trajectory, safety, loop; got '%s'\n",
+    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, campaign, all, site, bus, trajectory, safety, loop; got '%s'\n",
                  names.c_str(), suite_name.c_str());
     return 2;
   }
