@@ -210,7 +210,7 @@ int main(int argc, char** argv) {
   app.add_option("--site", site_file, "site file: draw the other machines of the site at their MGC_SITE_STATE joints");
   app.add_option("--site-key", site_key_file, "site key (32 raw bytes, mode 600): draw only verified site states; needs --machine-id");
   app.add_option("--machine-id", machine_id, "this display's machine in the site file: not drawn from the site channel");
-  app.add_option("--site-lcm-url", site_lcm_url, "LCM provider of the site channel (default: --lcm-url)");
+  app.add_option("--site-lcm-url", site_lcm_url, "LCM provider of the site channel (default: the controllers' site group, udpm://239.255.76.68:7668?ttl=0)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -303,7 +303,7 @@ int main(int argc, char** argv) {
   // The site channel, on the site's network when it is not the feed's.
   std::unique_ptr<lcm::LCM> site_lcm;
   if (site && !playback) {
-    const std::string url = site_lcm_url.empty() ? lcm_url : site_lcm_url;
+    const std::string url = site_lcm_url.empty() ? std::string(mgc::firmware::kDefaultSiteLcmUrl) : site_lcm_url;
     site_lcm = std::make_unique<lcm::LCM>(url);
     if (!site_lcm->good()) {
       std::fprintf(stderr, "mgc-display: --site-lcm-url: cannot open '%s'\n", url.c_str());

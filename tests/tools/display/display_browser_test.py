@@ -87,7 +87,7 @@ def step(line):
 
 site_file = os.path.join(source_dir, "scenarios", "sites", "thesis-steel-frame.yaml")
 display = subprocess.Popen([display_bin, "--port", str(http_port), "--lcm-url", lcm_url, "--scenario", scenario,
-                            "--key", key_file, "--site", site_file, "--machine-id", "1"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            "--key", key_file, "--site", site_file, "--machine-id", "1", "--site-lcm-url", lcm_url], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 url = "http://127.0.0.1:%d/" % http_port
 first = display.stdout.readline().strip()
 check(first == "mgc-display: " + url + " (feed " + lcm_url + ")", "mgc-display prints its URL: " + first)

@@ -28,7 +28,7 @@ mkfifo "$tmp/feeder.in"
 "$feeder_bin" "$lcm_url" "$tmp/sent.txt" <"$tmp/feeder.in" >"$tmp/feeder.out" &
 feeder_pid=$!
 exec 3>"$tmp/feeder.in"
-"$display_bin" --port "$port" --lcm-url "$lcm_url" --scenario "$scenario" --site "$site" --machine-id 1 >"$tmp/display.out" 2>&1 &
+"$display_bin" --port "$port" --lcm-url "$lcm_url" --scenario "$scenario" --site "$site" --machine-id 1 --site-lcm-url "$lcm_url" >"$tmp/display.out" 2>&1 &
 display_pid=$!
 cleanup() {
   [ -n "${curl_pid:-}" ] && kill "$curl_pid" 2>/dev/null

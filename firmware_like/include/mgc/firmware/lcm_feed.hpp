@@ -32,10 +32,16 @@ inline constexpr const char* kCommandStatus = "MGC_COMMAND_STATUS";
 inline constexpr const char* kHealth = "MGC_HEALTH";
 inline constexpr const char* kObstaclePoses = "MGC_OBSTACLE_POSES";
 inline constexpr const char* kSiteState = "MGC_SITE_STATE";  //!< the site channel (docs/site.md)
+inline constexpr const char* kSitePlan = "MGC_SITE_PLAN";    //!< the site channel (docs/site.md)
 }  // namespace channel
 
 //! UDP multicast on this host only: ttl=0 keeps every packet off the site network.
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+//! The site channel's own multicast group, apart from the operator feed's: every machine's mgc
+//! joins it, while each machine's operator feed stays its own. ttl=0 keeps it on this host; a site
+//! whose controllers run on several hosts sets ttl=1 (docs/site.md).
+inline constexpr const char* kDefaultSiteLcmUrl = "udpm://239.255.76.68:7668?ttl=0";
 
 //! Alerts for refused commands take ids from here up, so they never collide with the loop's
 //! alert ids (which count up from 1). [-]

@@ -24,16 +24,6 @@
 //! fixed-size structs through lock-free queues. The loop never calls LCM.
 namespace mgc::firmware {
 
-namespace channel {
-inline constexpr const char* kSiteState = "MGC_SITE_STATE";
-inline constexpr const char* kSitePlan = "MGC_SITE_PLAN";
-}  // namespace channel
-
-//! The site channel's own multicast group, apart from the operator feed's: every machine's mgc
-//! joins it, while each machine's operator feed stays its own. ttl=0 keeps it on this host; a site
-//! whose controllers run on several hosts sets ttl=1 (docs/site.md).
-inline constexpr const char* kDefaultSiteLcmUrl = "udpm://239.255.76.68:7668?ttl=0";
-
 //! Alerts for refused site messages take ids from here up, apart from the loop's and the refused
 //! commands' ids. [-]
 inline constexpr std::int32_t kSiteAlertIdBase = 0x50000000;
