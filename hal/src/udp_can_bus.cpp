@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <atomic>
 #include <ctime>
 #include <string>
 
@@ -198,7 +199,8 @@ class UdpEndpoint final : public UdpCanBus {
   std::array<CanFrame, cannelloni::kMaxFramesPerDatagram> scratch_{};
   std::array<TimedFrame, cannelloni::kMaxFramesPerDatagram> pending_{};
   std::size_t pending_head_ = 0;
-  std::size_t pending_size_ = 0;
+  // Atomic: wait_readable() may run on another thread than receive() (mgc-sim's loop threads).
+  std::atomic<std::size_t> pending_size_{0};
   std::array<Sender, kMaxTrackedSenders> senders_{};
   bool lost_since_receive_ = false;
   bool malformed_since_receive_ = false;

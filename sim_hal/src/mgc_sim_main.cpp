@@ -24,12 +24,12 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
-#include <sys/resource.h>
 
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/clock.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/io/site_loader.hpp"
+#include "mgc/sim/realtime_loop.hpp"
 #include "mgc/sim/simulator.hpp"
 #include "mgc/sim/truth_monitor.hpp"
 #include "mgc/tools/cli_checks.hpp"
@@ -272,26 +272,18 @@ MemoryLock lock_memory() {
   return lock;
 }
 
-//! The real-time loop's own timing: a SYNC that arrives while an iteration is busy (or the process
-//! is not scheduled) waits for it, and the controller marks a device stale after 3 SYNC periods
-//! without its answer, so the longest gap between two iterations is the figure that matters.
-//! Plain maxima and counters: no allocation in the loop.
-class LoopTiming {
+//! The work of one loop iteration, phase by phase: the simulator's step (reading the bus,
+//! answering, the physics), the truth monitor's sample and the truth log's row. Plain maxima and
+//! counters, updated under the loop's lock: no allocation in the loop. The loop's gaps, wake-ups
+//! and page faults are RealtimeLoop's.
+class PhaseTiming {
  public:
-  explicit LoopTiming(std::int64_t sync_period_us) noexcept : sync_period_us_(sync_period_us) {}
-
-  //! At the top of an iteration, at now_us, simulation time t_s.
-  void iteration(std::int64_t now_us, double t_s) noexcept {
-    ++iterations_;
-    if (previous_us_ >= 0) {
-      const std::int64_t gap_us = now_us - previous_us_;
-      if (gap_us > max_gap_us_) {
-        max_gap_us_ = gap_us;
-        max_gap_t_s_ = t_s;
-      }
-      if (gap_us > sync_period_us_) ++gaps_over_sync_;
+  //! The simulator's step at simulation time t_s took duration_us.
+  void step(std::int64_t duration_us, double t_s) noexcept {
+    if (duration_us > max_step_us_) {
+      max_step_us_ = duration_us;
+      max_step_t_s_ = t_s;
     }
-    previous_us_ = now_us;
   }
   //! The truth monitor's first sample, before the loop, took duration_us.
   void warm_up(std::int64_t duration_us) noexcept { warm_up_us_ = duration_us; }
@@ -308,25 +300,13 @@ class LoopTiming {
     ++log_rows_;
     max_log_us_ = std::max(max_log_us_, duration_us);
   }
-  //! The loop woke at now_us for an event due at due_us (earlier when a frame arrived).
-  void woke(std::int64_t now_us, std::int64_t due_us) noexcept { max_late_us_ = std::max(max_late_us_, now_us - due_us); }
-  //! The page faults of the whole process from here on are the loop's.
-  void start_faults() noexcept { faults(major_start_, minor_start_); }
 
-  //! One line for the summary, e.g. "timing: 140210 loop iterations, longest gap between two 1.31 ms at
-  //! 12.40 s, 0 gaps over the 10 ms SYNC period, wake-up lateness max 0.30 ms; truth sample max
-  //! 0.35 ms at 42.35 s (the first, before the nodes boot, 4.12 ms); truth log row max 0.02 ms; 0
-  //! major and 0 minor page faults in the loop". Allocates (at the end of the run).
+  //! e.g. "step max 0.12 ms at 3.20 s; truth sample max 0.35 ms at 42.35 s (the first, before the
+  //! nodes boot, 4.12 ms); truth log row max 0.02 ms". Allocates (at the end of the run).
   [[nodiscard]] std::string line() const {
-    long major = 0;
-    long minor = 0;
-    faults(major, minor);
     const auto ms = [](std::int64_t us) { return static_cast<double>(us) * 1e-3; };
-    char buf[512];
-    std::snprintf(buf, sizeof buf,
-                  "timing: %" PRIu64 " loop iterations, longest gap between two %.2f ms at %.2f s, %" PRIu64
-                  " gaps over the %.0f ms SYNC period, wake-up lateness max %.2f ms",
-                  iterations_, ms(max_gap_us_), max_gap_t_s_, gaps_over_sync_, ms(sync_period_us_), ms(max_late_us_));
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "step max %.2f ms at %.2f s", ms(max_step_us_), max_step_t_s_);
     std::string line = buf;
     if (samples_ > 0) {
       std::snprintf(buf, sizeof buf, "; truth sample max %.2f ms at %.2f s (the first, before the nodes boot, %.2f ms)",
@@ -337,35 +317,18 @@ class LoopTiming {
       std::snprintf(buf, sizeof buf, "; truth log row max %.2f ms", ms(max_log_us_));
       line += buf;
     }
-    std::snprintf(buf, sizeof buf, "; %ld major and %ld minor page faults in the loop", major - major_start_,
-                  minor - minor_start_);
-    line += buf;
     return line;
   }
 
  private:
-  static void faults(long& major, long& minor) noexcept {
-    rusage usage{};
-    if (getrusage(RUSAGE_THREAD, &usage) != 0) return;
-    major = usage.ru_majflt;
-    minor = usage.ru_minflt;
-  }
-
-  std::int64_t sync_period_us_;
-  std::int64_t previous_us_ = -1;
-  std::uint64_t iterations_ = 0;
-  std::int64_t max_gap_us_ = 0;
-  double max_gap_t_s_ = 0.0;
-  std::uint64_t gaps_over_sync_ = 0;
-  std::int64_t max_late_us_ = 0;
+  std::int64_t max_step_us_ = 0;
+  double max_step_t_s_ = 0.0;
   std::uint64_t samples_ = 0;
   std::int64_t warm_up_us_ = 0;
   std::int64_t max_sample_us_ = 0;
   double max_sample_t_s_ = 0.0;
   std::uint64_t log_rows_ = 0;
   std::int64_t max_log_us_ = 0;
-  long major_start_ = 0;
-  long minor_start_ = 0;
 };
 
 }  // namespace
@@ -396,6 +359,7 @@ int main(int argc, char** argv) {
                  "site file gives it; instead of --scenario")
       ->excludes(scenario_opt);
   app.add_option("--machine-id", machine_id, "with --site: the machine's id in the site file");
+  std::size_t loop_threads = 1;
   app.add_option("--bus", bus_url, "CAN bus URL: loop:, udp:HOST:PORT,peer=HOST:PORT, socketcan:IFNAME (docs/protocol.md)")
       ->capture_default_str();
   app.add_option("--duration", duration_s, "stop after this many seconds (default: until SIGINT/SIGTERM)")
@@ -418,6 +382,11 @@ int main(int argc, char** argv) {
   app.add_option("--scenario-time-offset", time_offset_s, "start the scenario's scripted motion at this time [s]")
       ->check(CLI::Range(0.0, 1e6));
   app.add_flag("--mlock", mlock, "lock the process's memory (mlockall) when permitted");
+  app.add_option("--loop-threads", loop_threads,
+                 "threads that run the loop, each on a CPU of its own (at most the CPUs it may use): one answers "
+                 "while another is not run")
+      ->capture_default_str()
+      ->check(CLI::Range(std::size_t{1}, mgc::sim::RealtimeLoop::kMaxThreads));
   app.add_flag("--quiet", quiet, "print only errors, the timing line and the truth summary");
   try {
     app.parse(argc, argv);
@@ -491,7 +460,7 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
 
-    LoopTiming timing(sim.plan().timing.sync_period_us);
+    PhaseTiming timing;
     // The first sample, of the start state (the same as the first step's), taken before the nodes
     // boot: it pays for what a first distance query touches for the first time, so the loop does not.
     if (monitor) {
@@ -510,32 +479,32 @@ int main(int argc, char** argv) {
     const std::int64_t start_us = clock.now_us();
     const std::int64_t end_us = duration_s > 0.0 ? start_us + static_cast<std::int64_t>(duration_s * 1e6) : INT64_MAX;
     std::int64_t next_log_us = start_us;
-    timing.start_faults();
-    while (!g_stop.load()) {
-      const std::int64_t now_us = clock.now_us();
-      timing.iteration(now_us, sim.time_s());
-      sim.step(now_us);
-      // Before the log row, so that its clearance columns are never older than a monitor period.
-      if (monitor) {
-        const std::int64_t before_us = clock.now_us();
-        if (monitor->sample(sim)) timing.truth_sample(clock.now_us() - before_us, sim.time_s());
-      }
-      if (log && now_us >= next_log_us) {
-        const std::int64_t before_us = clock.now_us();
-        log->write(sim, scenario.dynamic_obstacles.size());
-        timing.log_row(clock.now_us() - before_us);
-        next_log_us += log_period_us;
-        if (next_log_us <= now_us) next_log_us = now_us + log_period_us;
-      }
-      if (now_us >= end_us) break;
-      std::int64_t next_us = std::min(sim.next_event_us(), end_us);
-      if (log) next_us = std::min(next_us, next_log_us);
-      const std::int64_t wait_us = next_us - clock.now_us();
-      if (wait_us > 0) {
-        (void)opened.bus->wait_readable(wait_us);
-        timing.woke(clock.now_us(), next_us);
-      }
-    }
+    mgc::sim::RealtimeLoop loop(clock, *opened.bus,
+                                {.threads = loop_threads,
+                                 .sync_period_us = sim.plan().timing.sync_period_us,
+                                 .stale_after_us = sim.plan().timing.encoder_stale_after_us});
+    loop.run(
+        [&](std::int64_t now_us) -> std::int64_t {
+          sim.step(now_us);
+          timing.step(clock.now_us() - now_us, sim.time_s());
+          // Before the log row, so that its clearance columns are never older than a monitor period.
+          if (monitor) {
+            const std::int64_t before_us = clock.now_us();
+            if (monitor->sample(sim)) timing.truth_sample(clock.now_us() - before_us, sim.time_s());
+          }
+          if (log && now_us >= next_log_us) {
+            const std::int64_t before_us = clock.now_us();
+            log->write(sim, scenario.dynamic_obstacles.size());
+            timing.log_row(clock.now_us() - before_us);
+            next_log_us += log_period_us;
+            if (next_log_us <= now_us) next_log_us = now_us + log_period_us;
+          }
+          if (now_us >= end_us) return -1;
+          std::int64_t next_us = std::min(sim.next_event_us(), end_us);
+          if (log) next_us = std::min(next_us, next_log_us);
+          return next_us;
+        },
+        g_stop);
     std::string log_error;
     if (log) log_error = log->close();
     if (!quiet) {
@@ -548,7 +517,7 @@ int main(int argc, char** argv) {
                   c.fail_safe_events, c.tag_fixes, c.tag_fixes_dropped, c.codec.malformed(), c.codec.unknown_id);
     }
     // With --quiet too: a late answer to a SYNC is the first thing to rule out when mgc faults.
-    std::string timing_line = timing.line();
+    std::string timing_line = "timing: " + loop.line() + "; " + timing.line();
     timing_line += locked.locked ? "; memory locked" : "; memory not locked";
     if (log && log->dropped() > 0) timing_line += "; truth log: " + std::to_string(log->dropped()) + " rows lost";
     std::printf("mgc-sim: %s\n", timing_line.c_str());

@@ -16,6 +16,7 @@ scenario="$root/scenarios/thesis-steel-frame.yaml"
 "$sim" --help >/dev/null || fail "--help exits non-zero"
 expect_bad "unknown fault" 'fault "encoder-melt:swing": unknown kind' --scenario "$scenario" --fault encoder-melt:swing --duration 1
 expect_bad "fault on an unknown joint" 'unknown target "jib"' --scenario "$scenario" --fault encoder-stuck:jib --duration 1
+expect_bad "no loop thread" '^mgc-sim: --loop-threads: .*0' --scenario "$scenario" --loop-threads 0 --duration 1
 expect_bad "bad bus URL" '^mgc-sim: --bus: .*nowhere:1' --scenario "$scenario" --bus nowhere:1 --duration 1
 expect_bad "missing scenario" 'does-not-exist.yaml' --scenario "$tmp/does-not-exist.yaml" --duration 1
 sed "s|^machine: machines/|machine: $root/scenarios/machines/|" "$scenario" >"$tmp/bad-sim.yaml"
@@ -60,7 +61,7 @@ grep -q ' 0 malformed, 0 unknown ids' "$tmp/healthy.sim" || fail "mgc-sim saw ma
 grep -Eq '^mgc-sim: truth: least clearance 1\.30 m at 0\.00 s \(carrier to frame/.*to the dynamic obstacles 24\.20 m .* 0 of (6[0-9]|7[0-9]) samples below 0\.50 m; ground: least clearance 0\.50 m at 0\.00 s \(load bottom\), of the hook 3\.50 m at 0\.00 s, 0 samples below; load chart: peak utilisation 81\.1 % at 0\.00 s \(boom 20\.00 m at 50\.0 deg\), 0 samples above 100 %, 0 outside the chart$' \
   "$tmp/healthy.sim" || fail "no truth line, or not the start's clearance: $(cat "$tmp/healthy.sim")"
 tail -1 "$tmp/healthy.csv" | grep -Eq ',1\.3000,6\.5[0-9]+,24\.20[0-9]+,0\.50[0-9]+,3\.50[0-9]+,0\.811[0-9]+$' || fail "truth CSV clearance columns: $(tail -1 "$tmp/healthy.csv")"
-grep -Eq '^mgc-sim: timing: [0-9]+ loop iterations, longest gap between two [0-9.]+ ms at [0-9.]+ s, [0-9]+ gaps over the 10 ms SYNC period, wake-up lateness max [0-9.]+ ms; truth sample max [0-9.]+ ms at [0-9.]+ s \(the first, before the nodes boot, [0-9.]+ ms\); truth log row max [0-9.]+ ms; [0-9]+ major and [0-9]+ minor page faults in the loop; memory (locked|not locked)$' \
+grep -Eq '^mgc-sim: timing: [0-9]+ loop iterations, longest gap between two [0-9.]+ ms at [0-9.]+ s, [0-9]+ gaps over the 10 ms SYNC period, [0-9]+ over the 30 ms staleness limit, wake-up lateness max [0-9.]+ ms; [0-9]+ major and [0-9]+ minor page faults in the loop; step max [0-9.]+ ms at [0-9.]+ s; truth sample max [0-9.]+ ms at [0-9.]+ s \(the first, before the nodes boot, [0-9.]+ ms\); truth log row max [0-9.]+ ms; memory (locked|not locked)$' \
   "$tmp/healthy.sim" || fail "no timing line: $(cat "$tmp/healthy.sim")"
 
 run_pair dropout 1 --fault encoder-dropout:cable_length@1 --monitor-period-ms 0
@@ -73,6 +74,13 @@ head -1 "$tmp/dropout.csv" | grep -q 'crane-2_yaw_deg$' || fail "--monitor-perio
 "$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$base,peer=127.0.0.1:$((base + 1))" --duration 0.5 --mlock --quiet \
   >"$tmp/mlock.sim" 2>&1 || fail "--mlock: exit $?: $(cat "$tmp/mlock.sim")"
 grep -Eq '^mgc-sim: timing: .*; memory (locked|not locked)$' "$tmp/mlock.sim" || fail "--mlock: $(cat "$tmp/mlock.sim")"
+# --loop-threads 2: on a machine of two CPUs or more, a thread on each of two, each with its figures.
+"$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$base,peer=127.0.0.1:$((base + 1))" --duration 0.5 --loop-threads 2 --quiet \
+  >"$tmp/threads.sim" 2>&1 || fail "--loop-threads 2: exit $?: $(cat "$tmp/threads.sim")"
+if [ "$(nproc)" -ge 2 ]; then
+  grep -Eq '^mgc-sim: timing: .*wake-up lateness max [0-9.]+ ms \(2 threads: on CPU [0-9]+ [0-9]+ iterations, lateness max [0-9.]+ ms, [0-9]+ wake-ups over the SYNC period, lock wait max [0-9.]+ ms; on CPU [0-9]+ [0-9]+ iterations, .*\); [0-9]+ major' \
+    "$tmp/threads.sim" || fail "--loop-threads 2: $(cat "$tmp/threads.sim")"
+fi
 # A truth log that cannot be written to the end: exit 1, naming the file and the reason.
 "$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$base,peer=127.0.0.1:$((base + 1))" --duration 0.5 --quiet \
   --truth-csv /dev/full >"$tmp/full.sim" 2>&1

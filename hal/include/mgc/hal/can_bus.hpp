@@ -60,7 +60,8 @@ class CanBus {
   //! never blocks.
   [[nodiscard]] virtual ReceiveResult receive(std::span<TimedFrame> out) noexcept = 0;
   //! Waits until receive() would return a frame, at most timeout_us: Ok or Timeout. May block;
-  //! for the loop harness and tests, not for a control cycle.
+  //! for the loop harness and tests, not for a control cycle. Any number of threads may
+  //! wait while one other thread sends or receives; send() and receive() take one at a time.
   [[nodiscard]] virtual Status wait_readable(std::int64_t timeout_us) noexcept = 0;
   //! Replaces the receive filters; a frame passes when any filter matches. An empty list receives
   //! no data frames (send-only, as CAN_RAW_FILTER with zero filters). Default: pass everything.

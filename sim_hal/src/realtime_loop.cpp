@@ -1,0 +1,174 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/sim/realtime_loop.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <cinttypes>
+#include <cstdio>
+#include <stdexcept>
+#include <thread>
+
+namespace mgc::sim {
+
+namespace {
+
+//! The longest single wait: a stop (a signal delivered to another thread, or another thread's last
+//! iteration) is seen within this. [us]
+constexpr std::int64_t kMaxWaitUs = 100'000;
+
+double ms(std::int64_t us) noexcept { return static_cast<double>(us) * 1e-3; }
+
+void thread_faults(long& major, long& minor) noexcept {
+  rusage usage{};
+  if (getrusage(RUSAGE_THREAD, &usage) != 0) return;
+  major = usage.ru_majflt;
+  minor = usage.ru_minflt;
+}
+
+}  // namespace
+
+void IterationGaps::iteration(std::int64_t now_us, double t_s) noexcept {
+  ++iterations_;
+  if (previous_us_ >= 0) {
+    const std::int64_t gap_us = now_us - previous_us_;
+    if (gap_us > max_gap_us_) {
+      max_gap_us_ = gap_us;
+      max_gap_t_s_ = t_s;
+    }
+    if (gap_us > sync_period_us_) ++gaps_over_sync_;
+    if (gap_us > stale_after_us_) ++gaps_over_stale_;
+  }
+  previous_us_ = now_us;
+}
+
+RealtimeLoop::RealtimeLoop(const hal::Clock& clock, hal::CanBus& bus, RealtimeLoopConfig config)
+    : clock_(clock), bus_(bus), config_(config), gaps_(config.sync_period_us, config.stale_after_us) {
+  if (config_.threads < 1 || config_.threads > kMaxThreads) {
+    throw std::invalid_argument("loop threads must be 1.." + std::to_string(kMaxThreads));
+  }
+  if (config_.sync_period_us <= 0 || config_.stale_after_us <= 0) {
+    throw std::invalid_argument("SYNC period and staleness limit must be positive");
+  }
+  cpus_.fill(-1);
+  if (config_.threads == 1) return;  // one thread runs where the scheduler puts it, as any process
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  std::size_t n = 0;
+  if (sched_getaffinity(0, sizeof allowed, &allowed) == 0) {
+    for (int cpu = 0; cpu < CPU_SETSIZE && n < config_.threads; ++cpu) {
+      if (CPU_ISSET(cpu, &allowed)) cpus_[n++] = cpu;
+    }
+  }
+  // Two threads on one CPU would wait for the same CPU: one is all that helps there.
+  threads_ = std::max<std::size_t>(n, 1);
+  if (threads_ == 1) cpus_[0] = -1;
+}
+
+void RealtimeLoop::run(const Iteration& iteration, const std::atomic<bool>& stop) {
+  start_us_ = clock_.now_us();
+  done_.store(false);
+  std::array<std::thread, kMaxThreads> others;
+  try {
+    for (std::size_t i = 1; i < threads_; ++i) others[i] = std::thread([this, i, &iteration, &stop] { thread_main(i, iteration, stop); });
+  } catch (...) {
+    done_.store(true);
+    for (std::thread& t : others) {
+      if (t.joinable()) t.join();
+    }
+    throw;
+  }
+  thread_main(0, iteration, stop);
+  for (std::thread& t : others) {
+    if (t.joinable()) t.join();
+  }
+}
+
+void RealtimeLoop::thread_main(std::size_t index, const Iteration& iteration, const std::atomic<bool>& stop) noexcept {
+  LoopThreadStats& st = stats_[index];
+  st.cpu = cpus_[index];
+  cpu_set_t previous;
+  CPU_ZERO(&previous);
+  bool pinned = false;
+  if (st.cpu >= 0 && pthread_getaffinity_np(pthread_self(), sizeof previous, &previous) == 0) {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(st.cpu, &one);
+    pinned = pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0;
+    if (!pinned) st.cpu = -1;
+  }
+  long major_start = 0;
+  long minor_start = 0;
+  thread_faults(major_start, minor_start);
+  while (!stop.load(std::memory_order_relaxed) && !done_.load(std::memory_order_acquire)) {
+    std::int64_t next_us = 0;
+    {
+      const std::int64_t before_us = clock_.now_us();
+      const std::lock_guard lock(mutex_);
+      // Read under the lock: whichever thread runs next, the time it is given is not earlier.
+      const std::int64_t now_us = clock_.now_us();
+      st.max_lock_wait_us = std::max(st.max_lock_wait_us, now_us - before_us);
+      if (done_.load(std::memory_order_relaxed)) break;
+      gaps_.iteration(now_us, static_cast<double>(now_us - start_us_) * 1e-6);
+      ++st.iterations;
+      next_us = iteration(now_us);
+      if (next_us < 0) {
+        done_.store(true, std::memory_order_release);
+        break;
+      }
+    }
+    const std::int64_t waited_from_us = clock_.now_us();
+    if (next_us <= waited_from_us) continue;
+    const std::int64_t wait_us = std::min(next_us - waited_from_us, kMaxWaitUs);
+    const std::int64_t due_us = waited_from_us + wait_us;
+    (void)bus_.wait_readable(wait_us);
+    // Negative when a frame woke it before the due time.
+    const std::int64_t late_us = clock_.now_us() - due_us;
+    st.max_late_us = std::max(st.max_late_us, late_us);
+    if (late_us > config_.sync_period_us) ++st.wakeups_over_sync;
+  }
+  long major = 0;
+  long minor = 0;
+  thread_faults(major, minor);
+  st.major_faults = major - major_start;
+  st.minor_faults = minor - minor_start;
+  if (pinned) (void)pthread_setaffinity_np(pthread_self(), sizeof previous, &previous);
+}
+
+std::string RealtimeLoop::line() const {
+  char buf[256];
+  std::int64_t max_late_us = 0;
+  long major = 0;
+  long minor = 0;
+  for (std::size_t i = 0; i < threads_; ++i) {
+    max_late_us = std::max(max_late_us, stats_[i].max_late_us);
+    major += stats_[i].major_faults;
+    minor += stats_[i].minor_faults;
+  }
+  std::snprintf(buf, sizeof buf,
+                "%" PRIu64 " loop iterations, longest gap between two %.2f ms at %.2f s, %" PRIu64
+                " gaps over the %.0f ms SYNC period, %" PRIu64 " over the %.0f ms staleness limit, wake-up lateness max %.2f ms",
+                gaps_.iterations(), ms(gaps_.max_gap_us()), gaps_.max_gap_t_s(), gaps_.gaps_over_sync(),
+                ms(gaps_.sync_period_us()), gaps_.gaps_over_stale(), ms(gaps_.stale_after_us()), ms(max_late_us));
+  std::string line = buf;
+  if (threads_ > 1) {
+    std::snprintf(buf, sizeof buf, " (%zu threads:", threads_);
+    line += buf;
+    for (std::size_t i = 0; i < threads_; ++i) {
+      const LoopThreadStats& st = stats_[i];
+      std::snprintf(buf, sizeof buf,
+                    "%s on CPU %d %" PRIu64 " iterations, lateness max %.2f ms, %" PRIu64
+                    " wake-ups over the SYNC period, lock wait max %.2f ms",
+                    i == 0 ? "" : ";", st.cpu, st.iterations, ms(st.max_late_us), st.wakeups_over_sync, ms(st.max_lock_wait_us));
+      line += buf;
+    }
+    line += ')';
+  }
+  std::snprintf(buf, sizeof buf, "; %ld major and %ld minor page faults in the loop", major, minor);
+  line += buf;
+  return line;
+}
+
+}  // namespace mgc::sim
