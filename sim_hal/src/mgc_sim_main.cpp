@@ -61,7 +61,8 @@ class CsvWriter {
   CsvWriter& operator=(const CsvWriter&) = delete;
 
   //! Queues a whole row, or drops it and counts it when the ring is full (the file system has
-  //! stalled for minutes). Loop side: no allocation, no lock, no wait.
+  //! stalled for minutes). Loop side: no allocation, no lock, no wait. One producer at a time: the
+  //! loop's threads push only under the loop's lock, which also orders one's pushes before the next's.
   bool push(const char* row, std::size_t size) noexcept {
     // One producer: the free space can only grow until the push.
     if (ring_->write_available() < size) {
