@@ -48,7 +48,8 @@ key="$out/operator.key"
 # for a page to be read or allocated during the lift. And it runs its loop on two threads, one per
 # CPU: on a shared virtual machine one CPU at a time is taken away for up to 100 ms (a vCPU the
 # hypervisor deschedules, a CPU held by another process's kernel work), and the thread on the
-# other answers meanwhile (docs/simulator.md, "Real time").
+# other answers meanwhile (docs/simulator.md, "Real time"). mgc does the same with a standby loop
+# thread (--loop-threads 2, docs/control-loop.md): its valve commands must not stop for 50 ms.
 sim_threads=(--loop-threads 2)
 sim_rt=()
 sim_lock=()
@@ -84,7 +85,7 @@ fi
   "${sim_threads[@]}" "${sim_lock[@]}" --truth-csv "$out/truth.csv" >"$out/sim.txt" &
 sim_pid=$!
 "$bin/mgc" --scenario "$site" "${mgc_bus[@]}" --key "$key" --lcm-url "$lcm_url" --exit-when-done --duration 600 \
-  --trace-csv "$out/trace.csv" --black-box "$out/mgc.blackbox" "${mgc_rt[@]}" >"$out/mgc.txt" 2>&1 &
+  --trace-csv "$out/trace.csv" --black-box "$out/mgc.blackbox" --loop-threads 2 "${mgc_rt[@]}" >"$out/mgc.txt" 2>&1 &
 mgc_pid=$!
 "$bin/mgc-operator" --key "$key" --lcm-url "$lcm_url" --scenario "$site" --goal --watch 600 --until-done || status=$?
 mgc_status=0

@@ -13,9 +13,14 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include <pthread.h>
+#include <sched.h>
 
 #include <mgc/operator_command_t.hpp>
 
@@ -36,6 +41,30 @@ namespace {
 
 std::atomic<bool> g_stop{false};
 extern "C" void on_signal(int /*signal*/) { g_stop.store(true); }
+
+//! How long after its slot the standby loop thread wakes (at most a quarter period): the first
+//! thread runs the cycle when the host lets it, and the standby only when it did not. [µs]
+constexpr std::int64_t kStandbyDelay_us = 2'000;
+
+//! The CPUs this process may run on, in order.
+std::vector<int> allowed_cpus() {
+  std::vector<int> cpus;
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  if (sched_getaffinity(0, sizeof allowed, &allowed) != 0) return cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c) {
+    if (CPU_ISSET(c, &allowed)) cpus.push_back(c);
+  }
+  return cpus;
+}
+
+//! Pins the calling thread to one CPU; false when the OS refuses.
+bool pin_to_cpu(int cpu) noexcept {
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(cpu, &one);
+  return pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0;
+}
 
 //! One row of the trace, recorded in the loop into preallocated storage.
 struct TraceRow {
@@ -67,6 +96,7 @@ int main(int argc, char** argv) {
   double duration_s = 0.0;
   int fifo_priority = 0;
   bool lock_memory = false;
+  int loop_threads = 1;
   std::string trace_csv;
   std::string replanner{mgc::planning::kDefaultReplanner};
   //! mgc-sim's valves have a 3 % deadband (docs/simulator.md); a real machine's is its valve calibration. [%]
@@ -106,6 +136,11 @@ int main(int argc, char** argv) {
   app.add_option("--duration", duration_s, "stop after this many seconds (default: until SIGINT/SIGTERM)")->check(mgc::tools::nonnegative_number());
   app.add_option("--fifo-priority", fifo_priority, "SCHED_FIFO priority 1..99 when permitted (0: off)")->check(CLI::Range(0, 99));
   app.add_flag("--mlock", lock_memory, "lock the process's memory (mlockall) when permitted");
+  app.add_option("--loop-threads", loop_threads,
+                 "control loop threads: 2 adds a standby thread on another CPU that runs a cycle the first thread "
+                 "woke too late for (docs/control-loop.md)")
+      ->check(CLI::Range(1, 2))
+      ->capture_default_str();
   app.add_option("--trace-csv", trace_csv, "write the controller's view at 10 Hz here (CSV; mgc-plan --trace draws it)");
   std::string replanners;
   for (auto n : mgc::planning::replanner_names()) replanners += (replanners.empty() ? "" : ", ") + std::string(n);
@@ -296,7 +331,15 @@ int main(int argc, char** argv) {
     std::array<bool, 64> alert_seen{};
     int alerts_raised = 0;
 
-    while (!g_stop.load() && !finished) {
+    // The cycle, run by whichever loop thread holds cycle_mutex when its slot comes: the first
+    // thread wakes at the slot; with --loop-threads 2 a standby thread on another CPU wakes a little
+    // after it and runs the cycle when the first has not (its CPU taken away by the host), so a
+    // stall of one CPU does not silence the valve's commands. Returns false when the loop ends.
+    std::mutex cycle_mutex;
+    std::atomic<std::int64_t> published_slot_us{-1};
+    std::atomic<bool> loop_over{false};
+    std::uint64_t standby_cycles = 0;
+    const auto run_cycle = [&]() -> bool {
       const firmware::CycleTiming timing = executive.wait_next();
       if (start_us < 0) start_us = timing.start_us;
       const hal::SensorSnapshot& s = hal.read(timing.start_us);
@@ -415,8 +458,41 @@ int main(int argc, char** argv) {
         }
       }
       executive.end_cycle();
-      if (duration_s > 0.0 && static_cast<double>(timing.start_us - start_us) * 1e-6 >= duration_s) break;
+      published_slot_us.store(executive.next_slot_us());
+      if (duration_s > 0.0 && static_cast<double>(timing.start_us - start_us) * 1e-6 >= duration_s) return false;
+      return !finished;
+    };
+    const std::vector<int> loop_cpus = loop_threads > 1 ? allowed_cpus() : std::vector<int>{};
+    std::thread standby;
+    if (loop_threads > 1) {
+      const std::int64_t standby_delay_us = std::min<std::int64_t>(kStandbyDelay_us, period_us / 4);
+      standby = std::thread([&, standby_delay_us] {
+        if (loop_cpus.size() > 1) (void)pin_to_cpu(loop_cpus[1]);
+        while (!loop_over.load()) {
+          const std::int64_t slot = published_slot_us.load();
+          if (slot < 0) {
+            loop_clock.sleep_until_us(loop_clock.now_us() + period_us);
+            continue;
+          }
+          loop_clock.sleep_until_us(slot + standby_delay_us);
+          const std::lock_guard<std::mutex> lock(cycle_mutex);
+          if (loop_over.load() || executive.next_slot_us() != slot) continue;
+          ++standby_cycles;
+          if (!run_cycle()) loop_over.store(true);
+        }
+      });
+      if (!loop_cpus.empty()) (void)pin_to_cpu(loop_cpus[0]);
     }
+    while (!g_stop.load() && !loop_over.load()) {
+      const std::int64_t slot = published_slot_us.load();
+      if (slot >= 0) loop_clock.sleep_until_us(slot);
+      const std::lock_guard<std::mutex> lock(cycle_mutex);
+      if (loop_over.load()) break;
+      if (slot >= 0 && executive.next_slot_us() != slot) continue;  // the standby thread ran it
+      if (!run_cycle()) loop_over.store(true);
+    }
+    loop_over.store(true);
+    if (standby.joinable()) standby.join();
     // Leave the machine with the valves at neutral.
     const std::vector<double> zero(static_cast<std::size_t>(controller.num_joints()), 0.0);
     (void)hal.write(zero, bus_clock.now_us());
@@ -504,10 +580,11 @@ int main(int argc, char** argv) {
     }
     std::printf("mgc: loop: %" PRIu64 " cycles at %" PRId64 " us, compute p99 %" PRId64 " us max %" PRId64
                 " us, wake-up lateness p99 %" PRId64 " us max %" PRId64 " us, %" PRIu64 " deadline misses, %" PRIu64
-                " watchdog trips, %" PRIu64 " snapshots dropped%s\n",
+                " watchdog trips, %" PRIu64 " snapshots dropped%s%s\n",
                 es.cycles, period_us, es.compute.percentile_us(0.99), es.compute.max_us(), es.lateness.percentile_us(0.99),
                 es.lateness.max_us(), es.deadline_misses, es.watchdog_trips, snapshots.dropped(),
-                trace_dropped > 0 ? ", trace full" : "");
+                trace_dropped > 0 ? ", trace full" : "",
+                loop_threads > 1 ? (", " + std::to_string(standby_cycles) + " cycles run by the standby thread").c_str() : "");
     if (black_box) {
       const firmware::black_box::WriterStats& bs = black_box->stats();
       const double run_s = std::max(1e-6, static_cast<double>(es.cycles) * static_cast<double>(period_us) * 1e-6);

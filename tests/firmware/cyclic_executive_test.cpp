@@ -156,3 +156,21 @@ TEST_CASE("enable_realtime never fails, it reports what it got", "[firmware]") {
   CHECK_FALSE(r.memory_locked);
   CHECK(r.detail.empty());
 }
+
+TEST_CASE("next_slot_us names the slot a standby thread waits for, and its late start keeps the grid", "[firmware][loop]") {
+  SteppedClock clock(1'000'000);
+  CyclicExecutive loop(clock, {10'000, 3});
+  CHECK(loop.next_slot_us() == -1);  // no grid before the first cycle
+  (void)loop.wait_next();
+  loop.end_cycle();
+  REQUIRE(loop.next_slot_us() == 1'010'000);
+  // The first thread did not wake: the standby wakes 2 ms after the slot and runs that slot's cycle.
+  clock.sleep_until_us(loop.next_slot_us() + 2'000);
+  const CycleTiming t = loop.wait_next();
+  CHECK(t.scheduled_us == 1'010'000);
+  CHECK(t.lateness_us == 2'000);
+  CHECK(t.skipped_periods == 0);
+  loop.end_cycle();
+  CHECK(loop.next_slot_us() == 1'020'000);
+  CHECK(loop.stats().deadline_misses == 0);
+}

@@ -107,6 +107,9 @@ class CyclicExecutive {
   void reset_watchdog() noexcept;
   [[nodiscard]] const ExecutiveStats& stats() const noexcept { return stats_; }
   [[nodiscard]] const ExecutiveConfig& config() const noexcept { return config_; }
+  //! The slot the next wait_next() starts (after the first cycle); -1 before it. A standby loop
+  //! thread waits for it and runs the cycle when the first thread has not. [µs]
+  [[nodiscard]] std::int64_t next_slot_us() const noexcept { return started_ ? next_slot_us_ : -1; }
 
  private:
   void record_misses(int misses) noexcept;
