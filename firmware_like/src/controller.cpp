@@ -232,6 +232,9 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   if (config.shorten_chunks_per_cycle < 1) throw std::invalid_argument("controller: shorten_chunks_per_cycle must be >= 1");
   if (config.max_path_waypoints < 2) throw std::invalid_argument("controller: max_path_waypoints must be >= 2");
   if (!(config.retreat_floor_tolerance_m >= 0.0)) throw std::invalid_argument("controller: retreat_floor_tolerance_m must be >= 0");
+  if (!(config.acceleration_lead_s >= 0.0 && config.acceleration_lead_s <= 1.0)) {
+    throw std::invalid_argument("controller: acceleration_lead_s must be in [0, 1] s");
+  }
   if (!(config.follow_speed_fraction > 0.0 && config.follow_speed_fraction <= 1.0)) {
     throw std::invalid_argument("controller: follow_speed_fraction must be in (0, 1]");
   }
@@ -431,11 +434,17 @@ void Controller::run_safety() noexcept {
     const bool command_faster = std::abs(v_cmd) > std::abs(velocity_[k]);
     // The rate limiter ramps the command without a jerk limit and brakes it at once when told to
     // stop: its acceleration while catching up with the setpoint is no state the braking must
-    // first undo (taken as 0); its braking is. The estimated acceleration is a second difference
-    // of encoder counts: within the joint's limit it is plausible, beyond it noise.
-    const double a_max = model_->joints()[k].max_acceleration;
+    // first undo (taken as 0); its braking is, up to the most that the jerk limit can take back to
+    // 0 just as the velocity reaches 0. A cut of the command by more (a speed scale that falls in
+    // one cycle) would otherwise brake through rest into a reverse swing no actuator makes. The
+    // estimated acceleration is a second difference of encoder counts: within the joint's limit it
+    // is plausible, beyond it noise.
+    const planning::JointSpec& spec = model_->joints()[k];
+    const double a_max = spec.max_acceleration;
     const double a_cmd = limiter_.acceleration()[k];
-    const double a = command_faster ? (a_cmd * v_cmd > 0.0 ? 0.0 : a_cmd) : std::clamp(acceleration_[k], -a_max, a_max);
+    const double braking_max = std::min(a_max, std::sqrt(2.0 * spec.max_jerk * std::abs(v_cmd)));
+    const double a = command_faster ? (a_cmd * v_cmd > 0.0 ? 0.0 : std::clamp(a_cmd, -braking_max, braking_max))
+                                    : std::clamp(acceleration_[k], -a_max, a_max);
     state.joints[k] = {q_wrapped_[j], command_faster ? v_cmd : velocity_[k], a};
   }
   // Following an escape, with every obstacle settled: only a motion that comes nearer is stopped,
@@ -707,7 +716,8 @@ void Controller::follow(double dt_s, double speed_scale) noexcept {
     const auto k = static_cast<std::size_t>(j);
     const double error = setpoint_[k].position - q_unwrapped_[j];
     const double v_max = model_->joints()[k].max_velocity;
-    v_target_[k] = std::clamp(speed_scale * (setpoint_[k].velocity + config_.position_gain_per_s * error), -v_max, v_max);
+    const double lead = setpoint_[k].velocity + config_.acceleration_lead_s * setpoint_[k].acceleration;
+    v_target_[k] = std::clamp(speed_scale * (lead + config_.position_gain_per_s * error), -v_max, v_max);
   }
 }
 

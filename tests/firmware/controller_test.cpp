@@ -357,17 +357,17 @@ TEST_CASE("the controller replays the same inputs to bit-identical outputs", "[f
 TEST_CASE("the controller gets away from crane 2 parked next to the stopped crane", "[firmware][sim][e2e]") {
   // 19.6 s ahead, crane 2 parks its boom within the planning margin of our stopped crane: the
   // escape plan starts there, and the stop check must let it move away rather than stop it every
-  // time (the retreat floor). 19.8 s ahead, it parks so near that not even the escape world accepts
-  // the start: a single-joint retreat comes first. Escape paths are planned from scratch round
-  // crane 2, hence the longer time allowed. The offsets depend on where the lift's plan has the
-  // crane when crane 2 arrives, to the tenth of a second: from 20 s to 21.4 s ahead crane 2
-  // swings its hoist line into the stopped crane's cable, and from 21.6 s on the controller finds
-  // no way out in time.
+  // time (the retreat floor). 19.75 s ahead, it parks so near that not even the escape world
+  // accepts the start: a single-joint retreat comes first. Escape paths are planned from scratch
+  // round crane 2, hence the longer time allowed. The offsets depend on where the lift's plan has
+  // the crane when crane 2 arrives, to the hundredth of a second (a sweep in steps of 0.01 s): a
+  // retreat first from 19.73 s, and from 19.78 s to 21.3 s ahead crane 2 swings its hoist line
+  // into the stopped crane's cable; from 21.4 s on the controller finds no way out in time.
   struct Case {
     double offset_s;
     bool retreat;
   };
-  for (const Case c : {Case{19.6, false}, Case{19.8, true}}) {
+  for (const Case c : {Case{19.6, false}, Case{19.75, true}}) {
     CAPTURE(c.offset_s);
     sim::SimConfig config = SimRig::quiet_config();
     config.scenario_time_offset_s = c.offset_s;

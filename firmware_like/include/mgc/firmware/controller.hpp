@@ -43,6 +43,11 @@ struct ControllerConfig {
   //! the position feedback's authority. [-]
   double follow_speed_fraction = 0.8;
   double position_gain_per_s = 2.0;   //!< feedback on the setpoint's position error [1/s]
+  //! The command leads the setpoint's velocity by its acceleration times this: the valve and
+  //! actuator's flow-to-velocity lag, identified at commissioning (mgc-sim: 0.15 s). Without it the
+  //! machine trails the setpoint by that lag and the feedback alone brings it back, after it has
+  //! run past a goal by about deceleration × lag / position gain. 0 turns the lead off. [s]
+  double acceleration_lead_s = 0.15;
   //! A joint whose estimated speed stays below this is at rest. [rad/s | m/s]
   double rest_speed = 0.005;
   //! Weight of a new velocity sample in the estimate's first-order filter (1: no filter). [-]
