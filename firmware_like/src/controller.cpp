@@ -104,7 +104,7 @@ std::vector<guidance::MachineTag> machine_tag_list(const planning::Scenario& s, 
 
 //! The joint whose link carries the bus plan's inclinometer; -1 when the machine's plan has none
 //! (or the machine has no plan).
-int inclinometer_joint(const planning::Scenario& s) {
+int bus_plan_inclinometer_joint(const planning::Scenario& s) {
   std::vector<std::string> names;
   for (const planning::JointSpec& j : s.machine.joints) names.push_back(j.name);
   try {
@@ -138,6 +138,7 @@ enum AlertKind : std::size_t {
   kAlertCutoff,
   kAlertMachineTag,
   kAlertSite,
+  kAlertInclinometer,
 };
 
 std::unique_ptr<guidance::Envelope> make_envelope(const planning::Scenario& scenario, const planning::MachineModel& model) {
@@ -214,7 +215,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       supervisor_(supervisor_config(config.supervisor, scenario_)),
       monitor_(plausibility_joints(*model_), config.plausibility),
       tag_check_(*model_, machine_tag_list(scenario_, *model_), config.machine_tags),
-      inclinometer_check_(inclinometer_joint(scenario_), config.inclinometer),
+      inclinometer_check_(bus_plan_inclinometer_joint(scenario_), config.inclinometer),
       limiter_(make_limiter(*model_)),
       n_(model_->dof()) {
   if (!replanner_) throw std::invalid_argument("controller: unknown re-planner '" + config.replanner + "'");
@@ -802,7 +803,9 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
   const guidance::InclinometerResult& angle = inclinometer_check_.update(angle_in);
   stats_.inclinometer_judged = inclinometer_check_.judged();
   stats_.inclinometer_peak_ratio = std::max(stats_.inclinometer_peak_ratio, inclinometer_check_.peak_ratio());
-  if (angle_joint >= 0 && s.inclinometer_joint >= 0 && !s.inclinometer_angle.valid) ++stats_.inclinometer_unavailable_cycles;
+  inclinometer_missing_ = angle_joint >= 0 && !(s.inclinometer_joint == angle_joint && s.inclinometer_angle.valid);
+  if (inclinometer_missing_) ++stats_.inclinometer_unavailable_cycles;
+  else if (angle_joint >= 0) inclinometer_valid_us_ = now_us_;
   if (finding == guidance::PlausibilityFault::None && angle.disagrees) {
     finding = guidance::PlausibilityFault::AngleDisagrees;
     finding_index = angle.joint;
@@ -1164,6 +1167,12 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
   raise(kAlertMachineTag, tag_check_.stale_count() > 0 && supervisor_.state() != SupervisorState::Init, A::SEVERITY_WARN,
         A::SOURCE_SENSING, A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_NONE, static_cast<double>(tag_check_.stale_count()), kNaN,
         tag_check_.stale_tag());
+  // The bus plan's boom inclinometer silent, stale or faulted: the boom encoder has no second
+  // source until it returns, which the operator must know (value: the age of its last valid
+  // sample, NaN if none yet; index: the joint it measures).
+  const double angle_age_s = inclinometer_valid_us_ >= 0 ? static_cast<double>(now_us_ - inclinometer_valid_us_) * 1e-6 : kNaN;
+  raise(kAlertInclinometer, inclinometer_missing_ && supervisor_.state() != SupervisorState::Init, A::SEVERITY_WARN,
+        A::SOURCE_SENSING, A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_SECOND, angle_age_s, kNaN, inclinometer_check_.result().joint);
   // The site: a stop or slow-down the rules ask for, or a machine stale or never heard (index: its id).
   const bool site_alert = site_ && have_reading_ && (site_motion_ != SiteMotion::Proceed || site_stale_);
   const int site_for = site_ ? site_roster_.index_of(site_decision_.motion_for_id) : -1;

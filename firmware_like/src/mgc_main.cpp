@@ -571,6 +571,10 @@ int main(int argc, char** argv) {
         std::printf(", machine tags: %" PRIu64 " fixes judged, peak %.0f %% of their threshold, stale in %" PRIu64 " cycles",
                     st.machine_tag_fixes_judged, 100.0 * st.machine_tag_peak_ratio, st.machine_tag_stale_cycles);
       }
+      if (controller.inclinometer_joint() >= 0) {
+        std::printf(", boom inclinometer: %" PRIu64 " samples judged, peak %.0f %% of its threshold, unavailable in %" PRIu64 " cycles",
+                    st.inclinometer_judged, 100.0 * st.inclinometer_peak_ratio, st.inclinometer_unavailable_cycles);
+      }
       std::printf("\n");
     }
     if (controller.has_envelope()) {

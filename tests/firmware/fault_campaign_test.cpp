@@ -278,8 +278,35 @@ TEST_CASE("campaign: the boom inclinometer finds a boom-encoder drift the loop f
 TEST_CASE("campaign: a silent inclinometer leaves the lift to its goal, judged no more and counted", "[firmware][sim][campaign]") {
   const double t = boom_moving_s();
   Lift lift(with_fault("heartbeat-lost:inclinometer@" + std::to_string(t)));
+  // The operator is told: a sensing warning naming the boom, from the silence on, never before.
+  const int boom = lift.controller.inclinometer_joint();
+  REQUIRE(boom >= 0);
+  double first_alert_s = -1.0;
+  double oldest_age_s = 0.0;
+  int alert_cycles_before = 0;
+  const auto cycle = lift.rig.on_cycle;
+  lift.rig.on_cycle = [&](const hal::SensorSnapshot& s) {
+    cycle(s);
+    const firmware::GuidanceSnapshot& snap = lift.controller.snapshot();
+    for (int a = 0; a < snap.num_alerts; ++a) {
+      const firmware::SnapshotAlert& alert = snap.alerts[static_cast<std::size_t>(a)];
+      if (alert.source != mgc::alert_t::SOURCE_SENSING || alert.value_unit != mgc::alert_t::UNIT_SECOND || alert.index != boom) continue;
+      if (lift.sim_s() < t) ++alert_cycles_before;
+      else if (first_alert_s < 0.0) first_alert_s = lift.sim_s();
+      CHECK(alert.severity == mgc::alert_t::SEVERITY_WARN);
+      oldest_age_s = std::max(oldest_age_s, alert.value);
+    }
+  };
   for (int block = 0; block < 40 && lift.controller.stats().goals_reached == 0; ++block) lift.rig.run(5'000'000);
   INFO(lift.log);
+  CAPTURE(t, first_alert_s, oldest_age_s);
+  CHECK(alert_cycles_before == 0);
+  REQUIRE(first_alert_s >= t);
+  // The Hal calls a device whose heartbeat stopped stale after its consumer time (250 ms after
+  // the last heartbeat, which came up to 100 ms before the silence); the alert comes in that cycle.
+  CHECK(first_alert_s - t <= 1e-6 * static_cast<double>(hal::BusTiming{}.device_heartbeat_timeout_us));
+  // Its value is the age of the last valid sample: it grows with the silence.
+  CHECK(oldest_age_s > lift.sim_s() - t - 0.2);
   const firmware::ControllerStats& st = lift.controller.stats();
   CHECK(st.goals_reached == 1);
   CHECK(st.plausibility_fault == guidance::PlausibilityFault::None);

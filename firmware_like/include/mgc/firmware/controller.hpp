@@ -248,6 +248,8 @@ class Controller {
   [[nodiscard]] const guidance::StopCheckResult& stop_check() const noexcept { return check_; }
   [[nodiscard]] const guidance::PlausibilityMonitor& plausibility() const noexcept { return monitor_; }
   [[nodiscard]] const guidance::MachineTagCheck& machine_tags() const noexcept { return tag_check_; }
+  //! The joint whose angle the bus plan's inclinometer measures; -1 when the machine has none.
+  [[nodiscard]] int inclinometer_joint() const noexcept { return inclinometer_check_.result().joint; }
   //! The working-envelope limiter's verdict on the last command (nothing when the site has no envelope).
   [[nodiscard]] const guidance::EnvelopeResult& envelope() const noexcept { return envelope_result_; }
   [[nodiscard]] bool has_envelope() const noexcept { return envelope_ != nullptr; }
@@ -375,6 +377,8 @@ class Controller {
   guidance::PlausibilityMonitor monitor_;
   guidance::MachineTagCheck tag_check_;
   guidance::InclinometerCheck inclinometer_check_;
+  bool inclinometer_missing_ = false;  //!< the bus plan has one, and it cannot be judged this cycle
+  std::int64_t inclinometer_valid_us_ = -1;  //!< its last valid sample, -1 before the first [µs]
   std::array<std::uint8_t, planning::kMaxMachineTags> machine_tag_ids_{};
   std::array<guidance::MachineTagFix, planning::kMaxMachineTags> machine_tag_fixes_{};
   //! What the previous cycle commanded (the valve applies it now) and whether it kept pilot pressure.
@@ -414,7 +418,7 @@ class Controller {
   std::uint32_t plan_id_ = 0;
 
   // Alerts: one slot per kind, an id from raise to clear.
-  static constexpr std::size_t kAlertKinds = 12;
+  static constexpr std::size_t kAlertKinds = 13;
   static_assert(kAlertKinds <= static_cast<std::size_t>(kSnapshotMaxAlerts), "every alert kind fits a snapshot");
   std::array<SnapshotAlert, kAlertKinds> alerts_{};
   std::array<bool, kAlertKinds> alert_active_{};

@@ -14,7 +14,7 @@
 //! Enumerations use the values of the matching lcm_types constants, so the I/O thread copies them.
 namespace mgc::firmware {
 
-inline constexpr int kSnapshotMaxAlerts = 12;      //!< active alerts carried per snapshot [-]
+inline constexpr int kSnapshotMaxAlerts = 16;      //!< active alerts carried per snapshot [-]
 inline constexpr int kSnapshotMaxWaypoints = 32;   //!< plan waypoints carried per snapshot [-]
 inline constexpr int kInstructionTextBytes = 96;   //!< operator words incl. the terminating NUL [bytes]
 inline constexpr int kSnapshotMaxObstacles = 8;    //!< tracked obstacles carried per snapshot (obstacle_poses_t::MAX_OBSTACLES) [-]
