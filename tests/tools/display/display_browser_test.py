@@ -110,7 +110,7 @@ try:
     browser.get(url)
     check(wait_for(lambda: text("feed-status") == "LIVE", 5), "the page says LIVE while the state streams")
     check(wait_for(lambda: text("supervisor") == "EXECUTING", 2), "supervisor state shown: " + text("supervisor"))
-    check(text("load-value") == "72 %", "load moment shown: " + text("load-value"))
+    check(wait_for(lambda: text("load-value") == "72 %", 2), "load moment shown: " + text("load-value"))
     joints = text("joints")
     check("28.6 deg" in joints and "30.00 m" in joints, "joint values shown in deg and m: " + joints.replace("\n", " | "))
     step("guidance 0 1.2 0.7 1 3")
