@@ -5,6 +5,7 @@ namespace mgc::guidance {
 
 void Profile::reset(const JointState& start) noexcept {
   count_ = 0;
+  acceleration_scale_ = 0.0;
   brake_phase_count = 0;
   start_state_[0] = start;
   start_time_s_[0] = 0.0;

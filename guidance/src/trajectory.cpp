@@ -411,9 +411,17 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
 
 bool finite(double x) noexcept { return std::isfinite(x); }
 
-//! Appends the braking pre-phase: bring |a| to a_max, then, if the velocity is or will be beyond
-//! v_max, follow the time-optimal velocity change to (±v_max, 0) until the first instant where
-//! |v| <= v_max and the velocity at zero acceleration is inside the limits too.
+//! Appends the braking pre-phase (docs/trajectory.md, "Starts that must brake"). An acceleration
+//! beyond a_max is ramped to ±a_max at full jerk, the earliest it can be inside. Then, if the
+//! velocity is beyond ±v_max or will be whatever the jerk does (its value at zero acceleration
+//! v + a|a|/(2 j_max) is beyond), the jerk brings it back at the earliest instant from which it
+//! can stay within: in the frame where it must be pushed up, full jerk (the acceleration held at
+//! a_max once there) bounds every velocity from above, so the velocity is back at -v_max no
+//! earlier than along it, and only along it; from there it stays within when the acceleration is
+//! at most a_cap = sqrt(4 j_max v_max) (its value at zero acceleration is then at most v_max).
+//! Otherwise it would overshoot +v_max, and the earliest entry that stays within follows full
+//! jerk up to the parabola of states whose velocity at zero acceleration is v_max, then -j_max
+//! along it down to (-v_max, a_cap). Closed form, no iteration.
 bool append_brake(const JointLimits& lim, Profile& out) noexcept {
   const double v_max = lim.max_velocity, a_max = lim.max_acceleration, j_max = lim.max_jerk;
   JointState st = out.end_state();
@@ -424,40 +432,38 @@ bool append_brake(const JointLimits& lim, Profile& out) noexcept {
   }
   st = out.end_state();
   st.acceleration = std::clamp(st.acceleration, -a_max, a_max);  // rounding of the ramp above
-  const auto v_at_zero_a = [j_max](const JointState& s) {
-    return s.velocity + s.acceleration * std::abs(s.acceleration) / (2.0 * j_max);
-  };
-  const double v_az = v_at_zero_a(st);
+  const double v_az = st.velocity + st.acceleration * std::abs(st.acceleration) / (2.0 * j_max);
   if (std::abs(st.velocity) <= v_max && std::abs(v_az) <= v_max) return true;
-  const double side = std::abs(v_az) > v_max ? (v_az > 0.0 ? 1.0 : -1.0) : (st.velocity > 0.0 ? 1.0 : -1.0);
-  const VelocityChange c = velocity_change(st.velocity, st.acceleration, side * v_max, a_max, j_max);
-  const std::array<double, 3> durations{c.t1, c.t2, c.t3};
-  const std::array<double, 3> jerks{c.jerk, 0.0, -c.jerk};
-  for (std::size_t i = 0; i < 3; ++i) {
-    // First downward crossing of side*v = v_max in this phase (side*a <= 0 there).
-    const double j = side * jerks[i], a = side * st.acceleration, dv = side * st.velocity - v_max;
-    double t_cross = std::numeric_limits<double>::infinity();
-    if (j == 0.0) {
-      if (a < 0.0 && dv >= 0.0) t_cross = -dv / a;
-    } else {
-      const double disc = a * a - 2.0 * j * dv;
-      if (disc >= 0.0) {
-        const double r = std::sqrt(disc);
-        for (const double t : {(-a - r) / j, (-a + r) / j}) {
-          if (t >= 0.0 && a + j * t <= 0.0 && t < t_cross) t_cross = t;
-        }
-      }
-    }
-    if (t_cross <= durations[i]) {
-      const JointState at = advance(st, jerks[i], t_cross);
-      if (std::abs(v_at_zero_a(at)) <= v_max) {
-        return out.append(t_cross, jerks[i]);
-      }
-    }
-    if (!out.append(durations[i], jerks[i])) return false;
-    st = out.end_state();
+  // The frame where the velocity is pushed up into the band: below it now or bound to go below
+  // (a velocity above it whose value at zero acceleration is inside just comes down into it).
+  const double s = v_az < -v_max ? 1.0 : v_az > v_max ? -1.0 : (st.velocity < 0.0 ? 1.0 : -1.0);
+  const double v = s * st.velocity, a = s * st.acceleration, jerk = s * j_max;
+  // The velocity comes back to v_in, inside v_max by 16 roundings of the largest velocity in the
+  // braking (which can be hundreds of times v_max), so that rounding never leaves it beyond.
+  const double v_in =
+      v_max - 16.0 * std::numeric_limits<double>::epsilon() * std::max({std::abs(v), std::abs(v_az), v_max});
+  const double v_at_amax = v + (a_max * a_max - a * a) / (2.0 * j_max);
+  // Full jerk until the velocity is back at -v_in (on its rising side), with the acceleration a_e
+  // it then has; a plateau at a_max if the ramp reaches it first.
+  double rise_s = 0.0, plateau_s = 0.0, a_e = 0.0;
+  if (v_at_amax >= -v_in) {
+    a_e = std::sqrt(std::max(a * a - 2.0 * j_max * (v + v_in), 0.0));
+    rise_s = std::max((a_e - a) / j_max, 0.0);
+  } else {
+    a_e = a_max;
+    rise_s = std::max((a_max - a) / j_max, 0.0);
+    plateau_s = (-v_in - v_at_amax) / a_max;
   }
-  return true;
+  const double a_cap = std::sqrt(4.0 * j_max * v_in);
+  if (a_e <= a_cap) return out.append(rise_s, jerk) && out.append(plateau_s, 0.0);
+  // The switch onto the parabola v = v_in - a^2/(2 j_max), where full jerk from (v, a) meets it.
+  const double a_s = std::sqrt(j_max * (v_in - v) + a * a / 2.0);
+  if (a_s <= a_max) {
+    return out.append(std::max((a_s - a) / j_max, 0.0), jerk) && out.append((a_s - a_cap) / j_max, -jerk);
+  }
+  const double to_parabola_s = (v_in - a_max * a_max / (2.0 * j_max) - v_at_amax) / a_max;
+  return out.append(std::max((a_max - a) / j_max, 0.0), jerk) && out.append(std::max(to_parabola_s, 0.0), 0.0) &&
+         out.append((a_max - a_cap) / j_max, -jerk);
 }
 
 //! The UDUD candidates with first jerk +j (mirrored as for UDDU): jerk +J to x >= 0 (or a plateau at

@@ -45,7 +45,7 @@ bool valid(const Profile& p, const Move& m) {
         std::abs(end.acceleration) <= 1e-9)) {
     return false;
   }
-  const double v_lim = m.limits.max_velocity * (1.0 + 1e-9), a_lim = m.limits.max_acceleration * (1.0 + 1e-9);
+  const double v_lim = m.limits.max_velocity * (1.0 + 1e-12), a_lim = m.limits.max_acceleration * (1.0 + 1e-12);
   for (std::size_t i = 0; i < p.phase_count(); ++i) {
     if (!(std::abs(p.phase_jerk(i)) <= m.limits.max_jerk && p.phase_duration(i) > 0.0)) return false;
     if (i < p.brake_phase_count) continue;

@@ -86,7 +86,7 @@ TEST_CASE("a million random profiles end at the target within the limits", "[pro
     const std::size_t nb = profile.brake_phase_count;
     const Peaks main = peaks(profile, nb, profile.phase_count());
     const Peaks brake = peaks(profile, 0, nb);
-    const double v_lim = p.limits.max_velocity * (1.0 + 1e-9), a_lim = p.limits.max_acceleration * (1.0 + 1e-9);
+    const double v_lim = p.limits.max_velocity * (1.0 + 1e-12), a_lim = p.limits.max_acceleration * (1.0 + 1e-12);
     bool jerk_ok = true;
     for (std::size_t i = 0; i < profile.phase_count(); ++i) {
       jerk_ok = jerk_ok && std::abs(profile.phase_jerk(i)) <= p.limits.max_jerk && profile.phase_duration(i) > 0.0;

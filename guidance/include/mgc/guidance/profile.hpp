@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
+#include <limits>
 
 namespace mgc::guidance {
 
@@ -55,7 +58,17 @@ class Profile {
     if (count_ >= kMaxPhases) return false;
     duration_s_[count_] = duration_s;
     jerk_[count_] = jerk;
-    start_state_[count_ + 1] = advance(start_state_[count_], jerk, duration_s);
+    JointState& end = start_state_[count_ + 1];
+    end = advance(start_state_[count_], jerk, duration_s);
+    // A ramp meant to end at zero acceleration ends a few roundings of the profile's accelerations
+    // off it; over a following cruise of duration T that residue would move the velocity by
+    // residue T and the position by residue T^2/2 (1e-8 m after 5000 s), so an acceleration within
+    // 64 roundings of the largest one so far is zero.
+    acceleration_scale_ = std::max({acceleration_scale_, std::abs(start_state_[count_].acceleration),
+                                    std::abs(start_state_[count_].acceleration + jerk * duration_s)});
+    if (std::abs(end.acceleration) <= 64.0 * std::numeric_limits<double>::epsilon() * acceleration_scale_) {
+      end.acceleration = 0.0;
+    }
     start_time_s_[count_ + 1] = start_time_s_[count_] + duration_s;
     ++count_;
     return true;
@@ -79,6 +92,7 @@ class Profile {
 
  private:
   std::size_t count_ = 0;
+  double acceleration_scale_ = 0.0;  //!< [m/s²] largest |a| at a phase start or end so far
   std::array<double, kMaxPhases> duration_s_{};
   std::array<double, kMaxPhases> jerk_{};
   std::array<JointState, kMaxPhases + 1> start_state_{};
