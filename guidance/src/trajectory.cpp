@@ -21,28 +21,43 @@ struct VelocityChange {
   double jerk = 0.0;                    //!< jerk of the first phase; the third has -jerk
 };
 
+//! The limits and the reciprocals a calculation multiplies by, computed once: a division costs
+//! several multiplications, and a calculation makes a few dozen.
+struct Lim {
+  double v_max, a_max, j_max;
+  double inv_j, inv_2j, inv_a, inv_v;
+  explicit Lim(const JointLimits& l) noexcept
+      : v_max(l.max_velocity),
+        a_max(l.max_acceleration),
+        j_max(l.max_jerk),
+        inv_j(1.0 / l.max_jerk),
+        inv_2j(0.5 / l.max_jerk),
+        inv_a(1.0 / l.max_acceleration),
+        inv_v(1.0 / l.max_velocity) {}
+};
+
 //! The time-optimal change from (v0, a0), |a0| <= a_max, to (vt, 0): jerk towards vt until the
 //! peak acceleration, an optional plateau at ±a_max, jerk back to zero. The direction s is fixed
 //! by where the velocity would stop if the acceleration were ramped to zero at once (v_az).
 //! Inline (as is apply): a calculation calls it four to six times, often with constant arguments
 //! (rest as the target, zero start acceleration); inlined, a calculation takes about 10% less time.
-inline VelocityChange velocity_change(double v0, double a0, double vt, double a_max, double j_max) noexcept {
-  const double v_az = v0 + a0 * std::abs(a0) / (2.0 * j_max);
+inline VelocityChange velocity_change(double v0, double a0, double vt, const Lim& l) noexcept {
+  const double v_az = v0 + a0 * std::abs(a0) * l.inv_2j;
   const double s = vt >= v_az ? 1.0 : -1.0;
   const double a0m = s * a0;  // mirrored so that the change is upwards
   const double dv = s * (vt - v0);
   // The peak is at least a0m in exact arithmetic (s was chosen so); when vt is v_az up to
   // rounding, keep it there so that the ramp still ends at zero acceleration.
-  const double ap = std::max(std::sqrt(std::max(j_max * dv + a0m * a0m / 2.0, 0.0)), a0m);
+  const double ap = std::max(std::sqrt(std::max(l.j_max * dv + a0m * a0m / 2.0, 0.0)), a0m);
   VelocityChange c;
-  c.jerk = s * j_max;
-  if (ap <= a_max) {
-    c.t1 = (ap - a0m) / j_max;
-    c.t3 = ap / j_max;
+  c.jerk = s * l.j_max;
+  if (ap <= l.a_max) {
+    c.t1 = (ap - a0m) * l.inv_j;
+    c.t3 = ap * l.inv_j;
   } else {
-    c.t1 = std::max((a_max - a0m) / j_max, 0.0);
-    c.t3 = a_max / j_max;
-    c.t2 = std::max((dv - (a_max * a_max - a0m * a0m) / (2.0 * j_max) - a_max * a_max / (2.0 * j_max)) / a_max, 0.0);
+    c.t1 = std::max((l.a_max - a0m) * l.inv_j, 0.0);
+    c.t3 = l.a_max * l.inv_j;
+    c.t2 = std::max((dv - (2.0 * l.a_max * l.a_max - a0m * a0m) * l.inv_2j) * l.inv_a, 0.0);
   }
   return c;
 }
@@ -271,15 +286,32 @@ struct Candidates {
 constexpr double kTimeTolerance = 1e-12;
 constexpr double kLimitTolerance = 1e-12;
 
+//! The cruise at +v_max (the caller mirrors v0, a0, d for -v_max): the time-optimal change to
+//! v_max, a cruise, the time-optimal change to rest. False when the changes alone pass d.
+//! `tail` receives the change to rest from v_max (mirrored).
+bool vel_candidate(double v0, double a0, double d, const Lim& L, double jerk_sign, Candidate& out,
+                   VelocityChange& tail) noexcept {
+  const VelocityChange c1 = velocity_change(v0, a0, L.v_max, L);
+  const VelocityChange c2 = velocity_change(L.v_max, 0.0, 0.0, L);
+  tail = c2;
+  const double changes_distance = apply({0.0, v0, a0}, c1).position + distance_to_rest(L.v_max, c2);
+  const double cruise = (d - changes_distance) * L.inv_v;
+  if (!(cruise >= 0.0)) return false;
+  out = {c1.t1 + c1.t2 + c1.t3 + cruise + c2.t1 + c2.t2 + c2.t3, c1.t1, c1.t2, c1.t3, c1.jerk > 0.0 ? 1.0 : -1.0,
+         cruise, jerk_sign, L.v_max, false};
+  return true;
+}
+
 //! The UDDU candidates with first jerk +j (the caller mirrors v0, a0, d for -j): jerk +J to the
 //! acceleration x (or a plateau at A = a_max), -J to z <= 0 (or a plateau at -A), +J to zero; the
 //! velocity ends at zero when z^2 = x^2 + c with c = J v0 - a0^2/2. Each type (neither plateau,
 //! ACC0, ACC1, both) leaves one unknown and a polynomial from the position; the cruise at +v_max
 //! (VEL) is closed-form. x < 0 is allowed: the acceleration turns towards zero without reaching
 //! it before the stop (the "early turn").
-void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, double jerk_sign,
-                     Candidates& out) noexcept {
-  const double J = lim.max_jerk, A = lim.max_acceleration, v_max = lim.max_velocity;
+//! try_vel false: the caller found the cruise at v_max of this direction passing d already.
+void uddu_candidates(double v0, double a0, double d, const Lim& L, double jerk_sign, Candidates& out,
+                     bool try_vel = true) noexcept {
+  const double J = L.j_max, A = L.a_max, v_max = L.v_max;
   const double c = J * v0 - a0 * a0 / 2.0;
   const double v_lim = v_max * (1.0 + kLimitTolerance);
   std::array<double, kMaxDegree> roots{};
@@ -298,15 +330,14 @@ void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, dou
   const double margin = 1e-9 * (J * v_lim + std::abs(c) + A * A) + kTimeTolerance * A * J;
   const double peak_sq = J * v_lim - c + margin;
 
-  // VEL: cruise at +v_max.
+  // VEL: cruise at +v_max. Every other type of this direction peaks below v_max and so covers less
+  // than the changes to and from it: with a cruise left over, none of them reaches d.
   {
-    const VelocityChange c1 = velocity_change(v0, a0, v_max, A, J);
-    const VelocityChange c2 = velocity_change(v_max, 0.0, 0.0, A, J);
-    const double changes_distance = apply({0.0, v0, a0}, c1).position + distance_to_rest(v_max, c2);
-    const double cruise = (d - changes_distance) / v_max;
-    if (cruise >= 0.0) {
-      out.add({c1.t1 + c1.t2 + c1.t3 + cruise + c2.t1 + c2.t2 + c2.t3, c1.t1, c1.t2, c1.t3, c1.jerk > 0.0 ? 1.0 : -1.0,
-               cruise, jerk_sign, v_max, false});
+    Candidate vel;
+    VelocityChange tail;
+    if (try_vel && vel_candidate(v0, a0, d, L, jerk_sign, vel, tail)) {
+      out.add(vel);
+      return;
     }
   }
   // NONE: unknown x in [a0, A] with x^2 + c in [0, A^2]; the position is P(x) + z Q(x) = d with
@@ -472,9 +503,8 @@ bool append_brake(const JointLimits& lim, Profile& out) noexcept {
 //! of where the time-optimal stop would end: the stop has jerk pattern +J, -J, and stopping a little
 //! earlier means reaching a velocity between the one at zero acceleration and zero first. Both
 //! velocity extremes (at zero acceleration) lie between that velocity and zero, inside the limits.
-void udud_candidates(double v0, double a0, double d, const JointLimits& lim, double jerk_sign,
-                     Candidates& out) noexcept {
-  const double J = lim.max_jerk, A = lim.max_acceleration;
+void udud_candidates(double v0, double a0, double d, const Lim& L, double jerk_sign, Candidates& out) noexcept {
+  const double J = L.j_max, A = L.a_max;
   const double c = J * v0 - a0 * a0 / 2.0;
   if (!(c < 0.0)) return;  // no vp < 0 with zero acceleration is reachable by a +J first ramp
   std::array<double, kMaxDegree> roots{};
@@ -553,19 +583,33 @@ void udud_candidates(double v0, double a0, double d, const JointLimits& lim, dou
 //! end state. The stop (or change to rest) is built from the state actually reached, so it ends at
 //! zero velocity and acceleration exactly; a cruise is re-timed once from the position error, so
 //! that a velocity rounding error is not multiplied by a long cruise.
-bool build(const Candidate& c, double target_position, const JointLimits& lim, Profile& out) noexcept {
-  const double a_max = lim.max_acceleration, j_max = lim.max_jerk;
+//! `tail`, when given, is the change to rest from the cruise velocity (mirrored as the candidate),
+//! used when the head ends at zero acceleration instead of computing it again.
+bool build(const Candidate& c, double target_position, const Lim& L, Profile& out,
+           const VelocityChange* tail = nullptr) noexcept {
+  const double a_max = L.a_max, j_max = L.j_max;
   const double jerk = c.jerk_sign * c.head_sign * j_max;
   if (!(out.append(c.t0_s, jerk) && out.append(c.t1_s, 0.0) && out.append(c.t2_s, -jerk))) return false;
   JointState head = out.end_state();
   head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
-  const VelocityChange stop = velocity_change(head.velocity, head.acceleration, 0.0, a_max, j_max);
+  VelocityChange stop;
+  if (tail != nullptr && head.acceleration == 0.0) {
+    stop = *tail;
+    stop.jerk *= c.jerk_sign;
+  } else {
+    stop = velocity_change(head.velocity, head.acceleration, 0.0, L);
+  }
   double cruise = c.cruise_s;
   if (cruise > 0.0) {
-    // The re-timing changes only the cruise, so the stop is the same after it. The end position is
-    // integrated as append will, without appending the phases only to drop them again.
-    const JointState end = apply(advance(out.end_state(), 0.0, cruise), stop);
-    cruise = std::max(cruise - (end.position - target_position) / head.velocity, 0.0);
+    // The re-timing changes only the cruise, so the stop is the same after it. The end position
+    // without appending the phases only to drop them again: when the head ends at zero
+    // acceleration (Profile::append zeroes a rounding residue), the stop covers v/2 times its
+    // duration; otherwise integrated as append will.
+    const double end_position =
+        head.acceleration == 0.0
+            ? out.end_state().position + head.velocity * cruise + distance_to_rest(head.velocity, stop)
+            : apply(advance(out.end_state(), 0.0, cruise), stop).position;
+    cruise = std::max(cruise - (end_position - target_position) / head.velocity, 0.0);
   }
   const bool appended = out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
                         out.append(stop.t3, -stop.jerk);
@@ -598,7 +642,7 @@ CalculationResult calculate_stop(const JointState& start, const JointLimits& lim
   out.brake_phase_count = out.phase_count();
   const JointState& s = out.end_state();
   const double a = std::clamp(s.acceleration, -limits.max_acceleration, limits.max_acceleration);
-  const VelocityChange c = velocity_change(s.velocity, a, 0.0, limits.max_acceleration, limits.max_jerk);
+  const VelocityChange c = velocity_change(s.velocity, a, 0.0, Lim(limits));
   if (!(out.append(c.t1, c.jerk) && out.append(c.t2, 0.0) && out.append(c.t3, -c.jerk))) {
     return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   }
@@ -631,6 +675,7 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
   out.reset(start);
   if (const CalculationResult r = validate(start, limits); !r.ok()) return r;
   if (!finite(target_position)) return {TrajectoryStatus::ErrorInvalidInput, InvalidField::TargetPosition};
+  const Lim L(limits);
 
   if (!append_brake(limits, out)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   out.brake_phase_count = out.phase_count();
@@ -645,11 +690,24 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
   // fastest profile is then a UDDU of that direction (with every type solved, no other type was
   // faster in a million random problems of the property test), so those are solved first, and
   // every type of both directions only if none of them builds (never, in those problems).
-  const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, limits.max_acceleration,
-                                              limits.max_jerk);
+  const std::size_t brake_phases = out.phase_count();
+  // Fast path: a target far enough for a cruise at v_max in its direction. The changes to v_max and
+  // back cover at least the time-optimal stop, so the target is on its side of the stop, and the
+  // cruise is the fastest profile there (below). A stretch needs the other profiles too.
+  double vel_passes_d = 0.0;  // the direction whose cruise at v_max was found to pass d, if any
+  if (stretch == nullptr && d != 0.0) {
+    const double sign = d > 0.0 ? 1.0 : -1.0;
+    Candidate vel;
+    VelocityChange tail;
+    const bool found = vel_candidate(sign * s.velocity, sign * s.acceleration, sign * d, L, sign, vel, tail);
+    if (found && build(vel, target_position, L, out, &tail)) return {};
+    if (!found) vel_passes_d = sign;
+    out.truncate(brake_phases);
+  }
+  const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, L);
   const double stop_distance = apply({0.0, s.velocity, s.acceleration}, stop).position;
   const double side = d - stop_distance >= 0.0 ? 1.0 : -1.0;
-  const std::size_t brake_phases = out.phase_count();
+  const VelocityChange rest_from_v_max = velocity_change(L.v_max, 0.0, 0.0, L);
   Candidates candidates;
   bool built = false;
   for (int pass = 0; pass < 2 && !built; ++pass) {
@@ -659,15 +717,15 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
     if (std::abs(stop_distance - d) <= 1e-9) {
       candidates.add({stop.t1 + stop.t2 + stop.t3, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, false});
     }
-    uddu_candidates(side * s.velocity, side * s.acceleration, side * d, limits, side, candidates);
+    uddu_candidates(side * s.velocity, side * s.acceleration, side * d, L, side, candidates, side != vel_passes_d);
     // A stretch needs every no-cruise profile whose zero-acceleration velocity points to `side`
     // (UDDU that way, UDUD the other), not only the fastest.
     if (pass == 1 || stretch != nullptr) {
-      udud_candidates(-side * s.velocity, -side * s.acceleration, -side * d, limits, -side, candidates);
+      udud_candidates(-side * s.velocity, -side * s.acceleration, -side * d, L, -side, candidates);
     }
     if (pass == 1) {
-      uddu_candidates(-side * s.velocity, -side * s.acceleration, -side * d, limits, -side, candidates);
-      udud_candidates(side * s.velocity, side * s.acceleration, side * d, limits, side, candidates);
+      uddu_candidates(-side * s.velocity, -side * s.acceleration, -side * d, L, -side, candidates);
+      udud_candidates(side * s.velocity, side * s.acceleration, side * d, L, side, candidates);
     }
 
     // The fastest candidate that builds to the exact end state; a later one only if rounding made
@@ -681,7 +739,9 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
       if (best == nullptr) break;
       best->tried = true;
       out.truncate(brake_phases);
-      built = build(*best, target_position, limits, out);
+      // A cruise at v_max ends with the change to rest from it, as on the fast path, so that both
+      // build the same profile to the last bit.
+      built = build(*best, target_position, L, out, best->cruise_s > 0.0 ? &rest_from_v_max : nullptr);
     }
   }
   if (!built) {
@@ -711,11 +771,10 @@ CalculationResult time_optimal(const JointState& start, double target_position, 
 
 //! side * (position error) of the stretched profile with cruise velocity side * u lasting `after_s`
 //! in all: negative at u = 0 (the stop falls short), positive at the branch end.
-double stretch_error(const Stretch& st, const JointLimits& lim, double u, double after_s) noexcept {
+double stretch_error(const Stretch& st, const Lim& L, double u, double after_s) noexcept {
   const double vp = st.side * u;
-  const VelocityChange c1 = velocity_change(st.start.velocity, st.start.acceleration, vp, lim.max_acceleration,
-                                            lim.max_jerk);
-  const VelocityChange c2 = velocity_change(vp, 0.0, 0.0, lim.max_acceleration, lim.max_jerk);
+  const VelocityChange c1 = velocity_change(st.start.velocity, st.start.acceleration, vp, L);
+  const VelocityChange c2 = velocity_change(vp, 0.0, 0.0, L);
   const double changes_s = c1.t1 + c1.t2 + c1.t3 + c2.t1 + c2.t2 + c2.t3;
   const double distance =
       apply({0.0, st.start.velocity, st.start.acceleration}, c1).position + distance_to_rest(vp, c2);
@@ -727,6 +786,7 @@ double stretch_error(const Stretch& st, const JointLimits& lim, double u, double
 //! [0, peak_end], the cruise taking the time the two changes leave.
 CalculationResult stretch_to(const Stretch& st, double target_position, const JointLimits& lim, double duration_s,
                              Profile& out) noexcept {
+  const Lim L(lim);
   const double after_s = duration_s - st.brake_s;
   double lo = 0.0, hi = st.peak_end;
   // The ends' errors in closed form: at u = 0 the profile is the stop; at the branch end the
@@ -742,7 +802,7 @@ CalculationResult stretch_to(const Stretch& st, double target_position, const Jo
       u = (f_lo * hi - f_hi * lo) / (f_lo - f_hi);
       if (!(u > lo && u < hi)) u = lo + (hi - lo) / 2.0;
       if (u <= lo || u >= hi) break;
-      const double f = stretch_error(st, lim, u, after_s);
+      const double f = stretch_error(st, L, u, after_s);
       // f is the end position error [m] of the profile that would be built: a hundredth of the
       // guaranteed 1e-8 is enough.
       if (std::abs(f) <= 1e-10) break;
@@ -769,14 +829,13 @@ CalculationResult stretch_to(const Stretch& st, double target_position, const Jo
   }
   const double vp = st.side * u;
   out.truncate(out.brake_phase_count);
-  const VelocityChange c1 = velocity_change(st.start.velocity, st.start.acceleration, vp, lim.max_acceleration,
-                                            lim.max_jerk);
+  const VelocityChange c1 = velocity_change(st.start.velocity, st.start.acceleration, vp, L);
   if (!(out.append(c1.t1, c1.jerk) && out.append(c1.t2, 0.0) && out.append(c1.t3, -c1.jerk))) {
     return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   }
   JointState peak = out.end_state();
   peak.acceleration = std::clamp(peak.acceleration, -lim.max_acceleration, lim.max_acceleration);
-  const VelocityChange c2 = velocity_change(peak.velocity, peak.acceleration, 0.0, lim.max_acceleration, lim.max_jerk);
+  const VelocityChange c2 = velocity_change(peak.velocity, peak.acceleration, 0.0, L);
   const double cruise_s = std::max(duration_s - out.duration() - (c2.t1 + c2.t2 + c2.t3), 0.0);
   if (!(out.append(cruise_s, 0.0) && out.append(c2.t1, c2.jerk) && out.append(c2.t2, 0.0) &&
         out.append(c2.t3, -c2.jerk))) {
