@@ -282,7 +282,7 @@ struct Candidates {
 };
 
 //! Tolerances of the validity checks on a candidate: durations a rounding below zero are empty
-//! phases, and the limits hold to 1e-12 relative (the tests check 1e-9).
+//! phases, and the limits hold to 1e-12 relative (as the tests check).
 constexpr double kTimeTolerance = 1e-12;
 constexpr double kLimitTolerance = 1e-12;
 
@@ -579,6 +579,19 @@ void udud_candidates(double v0, double a0, double d, const Lim& L, double jerk_s
   }
 }
 
+//! The profile ends at rest at the target: to 1e-8 in position, or, for moves whose positions and
+//! cruise distance reach beyond 1e6, to 32 roundings of them (double precision cannot hold 1e-8
+//! there); to 1e-9 in velocity and acceleration, or 64 roundings of their limits beyond 1e7.
+bool reaches(const Profile& out, double target_position, const Lim& L) noexcept {
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  const JointState& end = out.end_state();
+  const double position_scale =
+      std::abs(out.state_at_phase(0).position) + std::abs(target_position) + L.v_max * out.duration();
+  return std::abs(end.position - target_position) <= std::max(1e-8, 32.0 * eps * position_scale) &&
+         std::abs(end.velocity) <= std::max(1e-9, 64.0 * eps * L.v_max) &&
+         std::abs(end.acceleration) <= std::max(1e-9, 64.0 * eps * L.a_max);
+}
+
 //! Appends the candidate's phases to `out` (which ends after the braking pre-phase) and checks the
 //! end state. The stop (or change to rest) is built from the state actually reached, so it ends at
 //! zero velocity and acceleration exactly; a cruise is re-timed once from the position error, so
@@ -613,9 +626,7 @@ bool build(const Candidate& c, double target_position, const Lim& L, Profile& ou
   }
   const bool appended = out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
                         out.append(stop.t3, -stop.jerk);
-  const JointState& end = out.end_state();
-  return appended && std::abs(end.position - target_position) <= 1e-8 && std::abs(end.velocity) <= 1e-9 &&
-         std::abs(end.acceleration) <= 1e-9;
+  return appended && reaches(out, target_position, L);
 }
 
 }  // namespace
@@ -841,9 +852,7 @@ CalculationResult stretch_to(const Stretch& st, double target_position, const Jo
         out.append(c2.t3, -c2.jerk))) {
     return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   }
-  const JointState& end = out.end_state();
-  if (!(std::abs(end.position - target_position) <= 1e-8) || !(std::abs(end.velocity) <= 1e-9) ||
-      !(std::abs(end.acceleration) <= 1e-9) || !(std::abs(out.duration() - duration_s) <= 1e-9 * duration_s)) {
+  if (!reaches(out, target_position, L) || !(std::abs(out.duration() - duration_s) <= 1e-9 * duration_s)) {
     return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   }
   return {};
