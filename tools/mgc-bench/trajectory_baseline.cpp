@@ -1,0 +1,836 @@
+// SPDX-License-Identifier: Apache-2.0
+// Bench only: a frozen copy of the trajectory generator as it was before the exact braking and the
+// duration-scaled tolerances (guidance/src/trajectory.cpp), so that `mgc-bench --suite trajectory`
+// times the current generator and this one on the same problems in one run. Not used elsewhere;
+// do not fix or extend it.
+#include "trajectory_baseline.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace mgc::bench::baseline {
+
+using guidance::advance;
+using guidance::CalculationResult;
+using guidance::InvalidField;
+using guidance::JointLimits;
+using guidance::JointState;
+using guidance::kMaxSynchronizedJoints;
+using guidance::Profile;
+using guidance::SynchronizedResult;
+using guidance::TrajectoryStatus;
+
+namespace {
+
+//! Three phases of jerk (+s j_max, 0, -s j_max) taking (v0, a0) to (vt, 0).
+struct VelocityChange {
+  double t1 = 0.0, t2 = 0.0, t3 = 0.0;  //!< [s]
+  double jerk = 0.0;                    //!< jerk of the first phase; the third has -jerk
+};
+
+//! The time-optimal change from (v0, a0), |a0| <= a_max, to (vt, 0): jerk towards vt until the
+//! peak acceleration, an optional plateau at ±a_max, jerk back to zero. The direction s is fixed
+//! by where the velocity would stop if the acceleration were ramped to zero at once (v_az).
+//! Inline (as is apply): a calculation calls it four to six times, often with constant arguments
+//! (rest as the target, zero start acceleration); inlined, a calculation takes about 10% less time.
+inline VelocityChange velocity_change(double v0, double a0, double vt, double a_max, double j_max) noexcept {
+  const double v_az = v0 + a0 * std::abs(a0) / (2.0 * j_max);
+  const double s = vt >= v_az ? 1.0 : -1.0;
+  const double a0m = s * a0;  // mirrored so that the change is upwards
+  const double dv = s * (vt - v0);
+  // The peak is at least a0m in exact arithmetic (s was chosen so); when vt is v_az up to
+  // rounding, keep it there so that the ramp still ends at zero acceleration.
+  const double ap = std::max(std::sqrt(std::max(j_max * dv + a0m * a0m / 2.0, 0.0)), a0m);
+  VelocityChange c;
+  c.jerk = s * j_max;
+  if (ap <= a_max) {
+    c.t1 = (ap - a0m) / j_max;
+    c.t3 = ap / j_max;
+  } else {
+    c.t1 = std::max((a_max - a0m) / j_max, 0.0);
+    c.t3 = a_max / j_max;
+    c.t2 = std::max((dv - (a_max * a_max - a0m * a0m) / (2.0 * j_max) - a_max * a_max / (2.0 * j_max)) / a_max, 0.0);
+  }
+  return c;
+}
+
+inline JointState apply(const JointState& s, const VelocityChange& c) noexcept {
+  return advance(advance(advance(s, c.jerk, c.t1), 0.0, c.t2), -c.jerk, c.t3);
+}
+
+//! Distance of the change c from (v, 0) to rest: its velocity is point-symmetric about the
+//! change's middle, so it covers v/2 times the change's duration (no need to integrate the phases).
+double distance_to_rest(double v, const VelocityChange& c) noexcept { return v * (c.t1 + c.t2 + c.t3) / 2.0; }
+
+//! Real roots in [lo, hi] of c[0] + c[1] x + ... + c[n] x^n, n <= 6, ascending, written to out (room
+//! for n). Each root is isolated between consecutive critical points (the derivative's roots,
+//! found the same way) and polished by Newton steps kept inside its bracket, so clustered and
+//! nearly double roots are not lost to the cancellation of the closed-form quartic formulas.
+constexpr int kMaxDegree = 6;
+
+// The degree is a template parameter so that the loops over the coefficients unroll.
+template <int n>
+double poly_eval(const double* c, double x) noexcept {
+  double r = c[n];
+  for (int k = n - 1; k >= 0; --k) r = r * x + c[k];
+  return r;
+}
+
+//! The root of c in [a, b], where the values at a (fa) and b (fb) differ in sign: Newton steps from
+//! the secant point, a bisection whenever a step would leave the bracket.
+template <int n>
+double polish(const double* c, double a, double fa, double b, double fb, double rel_tol) noexcept {
+  double x = (a * fb - b * fa) / (fb - fa);
+  if (!(x > a && x < b)) x = a + (b - a) / 2.0;
+  // Relative to the bracket's magnitude, so that a root at or near zero stops as soon as one
+  // elsewhere would.
+  const double tol = rel_tol * std::max({std::abs(a), std::abs(b), b - a});
+  for (int it = 0; it < 100; ++it) {
+    double f = c[n], df = 0.0;
+    for (int k = n - 1; k >= 0; --k) {
+      df = df * x + f;
+      f = f * x + c[k];
+    }
+    if (f == 0.0) return x;
+    if ((f < 0.0) == (fa < 0.0)) {
+      a = x;
+      fa = f;
+    } else {
+      b = x;
+      fb = f;
+    }
+    double next = x - f / df;
+    // Converged: checked before the bracket test, since x is now an end of the bracket and a step
+    // of rounding size often leaves it, which would restart the slow secant and bisection steps.
+    if (std::abs(next - x) <= tol) return next >= a && next <= b ? next : x;
+    if (!(next > a && next < b)) {
+      // Newton left the bracket (or df was 0): the secant of the bracket, halved values at an end
+      // kept twice would be better still, but a bisection every other time bounds the iterations.
+      next = (it % 2 == 0) ? (a * fb - b * fa) / (fb - fa) : a + (b - a) / 2.0;
+      if (!(next > a && next < b)) next = a + (b - a) / 2.0;
+    }
+    if (std::abs(next - x) <= tol || !(b - a > tol)) return next;
+    x = next;
+  }
+  return x;
+}
+
+//! True when c certainly has no root in [lo, hi]: the value at the midpoint exceeds what the other
+//! Taylor terms can change it by over the half-width. Most profile types have no root in their
+//! interval; this skips them without isolating the critical points.
+template <int n>
+bool no_root(const double* c, double lo, double hi) noexcept {
+  const double m = lo + (hi - lo) / 2.0, r = (hi - lo) / 2.0;
+  std::array<double, kMaxDegree + 1> t{};  // Taylor coefficients at m, by repeated synthetic division
+  for (int k = 0; k <= n; ++k) t[static_cast<std::size_t>(k)] = c[k];
+  for (int i = 0; i <= n; ++i) {
+    for (int k = n - 1; k >= i; --k) t[static_cast<std::size_t>(k)] += m * t[static_cast<std::size_t>(k) + 1];
+  }
+  double bound = 0.0, rk = 1.0;
+  for (int k = 1; k <= n; ++k) {
+    rk *= r;
+    bound += std::abs(t[static_cast<std::size_t>(k)]) * rk;
+  }
+  return std::abs(t[0]) > bound * (1.0 + 1e-12);
+}
+
+// real_roots strips zero leading coefficients, real_roots_of_degree solves degrees 1 and 2 in
+// closed form, isolated_roots the others between critical points.
+template <int n>
+int real_roots_of_degree(const double* c, double lo, double hi, double* out, double rel_tol) noexcept;
+template <int n>
+int isolated_roots(const double* c, double lo, double hi, double* out, double rel_tol) noexcept;
+
+//! rel_tol: the relative step at which polishing stops; the critical points of the level above only
+//! isolate its roots and need less than full precision.
+template <int n>
+int real_roots(const double* c, double lo, double hi, double* out,
+               double rel_tol = 4.0 * std::numeric_limits<double>::epsilon()) noexcept {
+  if constexpr (n == 0) {
+    return 0;
+  } else {
+    if (c[n] == 0.0) return real_roots<n - 1>(c, lo, hi, out, rel_tol);
+    if (!(lo <= hi)) return 0;
+    return real_roots_of_degree<n>(c, lo, hi, out, rel_tol);
+  }
+}
+
+template <int n>
+int real_roots_of_degree(const double* c, double lo, double hi, double* out, double rel_tol) noexcept {
+  if constexpr (n == 1) {
+    const double x = -c[0] / c[1];
+    if (!(x >= lo && x <= hi)) return 0;
+    out[0] = x;
+    return 1;
+  } else if constexpr (n == 2) {
+    // The stable quadratic formula; a slightly negative discriminant is a double root lifted off
+    // the axis by rounding.
+    const double disc = c[1] * c[1] - 4.0 * c[2] * c[0];
+    std::array<double, 2> x{};
+    int m = 0;
+    if (disc >= 0.0) {
+      const double q = -(c[1] + std::copysign(std::sqrt(disc), c[1])) / 2.0;
+      x = {q / c[2], q != 0.0 ? c[0] / q : q / c[2]};
+      if (x[0] > x[1]) std::swap(x[0], x[1]);
+      m = 2;
+    } else if (disc >= -1e-12 * c[1] * c[1]) {
+      x[0] = -c[1] / (2.0 * c[2]);
+      m = 1;
+    }
+    int count = 0;
+    for (int i = 0; i < m; ++i) {
+      if (x[static_cast<std::size_t>(i)] >= lo && x[static_cast<std::size_t>(i)] <= hi) out[count++] = x[static_cast<std::size_t>(i)];
+    }
+    return count;
+  } else {
+    return isolated_roots<n>(c, lo, hi, out, rel_tol);
+  }
+}
+
+template <int n>
+int isolated_roots(const double* c, double lo, double hi, double* out, double rel_tol) noexcept {
+  if (no_root<n>(c, lo, hi)) return 0;
+  std::array<double, n> dc{};
+  for (int k = 0; k < n; ++k) dc[static_cast<std::size_t>(k)] = (k + 1) * c[k + 1];
+  std::array<double, n + 1> cuts{};
+  cuts[0] = lo;
+  const int m = real_roots<n - 1>(dc.data(), lo, hi, cuts.data() + 1, 1e-10);
+  cuts[static_cast<std::size_t>(m) + 1] = hi;
+  int count = 0;
+  double fa = poly_eval<n>(c, lo);
+  if (fa == 0.0) out[count++] = lo;
+  for (int i = 0; i <= m && count < n; ++i) {
+    const double a = cuts[static_cast<std::size_t>(i)], b = cuts[static_cast<std::size_t>(i) + 1];
+    const double fb = poly_eval<n>(c, b);
+    if (fb == 0.0) {
+      out[count++] = b;
+    } else if (fa != 0.0 && (fa < 0.0) != (fb < 0.0)) {
+      out[count++] = polish<n>(c, a, fa, b, fb, rel_tol);
+    } else if (i < m) {
+      // A critical point whose value is zero up to rounding: a double root that rounding lifted off
+      // the axis. Accepting it is safe, every candidate is checked when it is built.
+      double scale = 0.0, xk = 1.0;
+      for (int k = 0; k <= n; ++k, xk *= std::abs(b)) scale += std::abs(c[k]) * xk;
+      if (std::abs(fb) <= 1e-11 * scale) out[count++] = b;
+    }
+    fa = fb;
+  }
+  return count;
+}
+
+//! Newton steps on the unsquared position equation of a NONE profile, P(x) + r(x) Q(x) = d with
+//! r = -sqrt(x^2 + c) (UDDU, branch -1) or sqrt(-(x^2 + c)) (UDUD, branch +1): next to the ends of
+//! [lo, hi], where r has a square-root end, the squared polynomial's root is ill-conditioned in x.
+double polish_none(double x, double lo, double hi, double v0, double a0, double d, double J, double branch) noexcept {
+  const double c = J * v0 - a0 * a0 / 2.0, J_2 = J * J, a0_2 = a0 * a0;
+  for (int it = 0; it < 3; ++it) {
+    const double r_sq = -branch * (x * x + c);
+    if (!(r_sq > 0.0)) break;
+    const double r = branch * std::sqrt(r_sq);
+    const double p = (-3.0 * J * a0 * v0 + 6.0 * J * v0 * x + a0 * a0_2 - 3.0 * a0_2 * x + 3.0 * x * x * x) / (3.0 * J_2);
+    const double q = branch * (2.0 * c + 2.0 * x * x) / (2.0 * J_2);
+    const double dp = (6.0 * J * v0 - 3.0 * a0_2 + 9.0 * x * x) / (3.0 * J_2);
+    const double dr = -branch * x / r;
+    const double dq = branch * 2.0 * x / J_2;
+    const double f = p + r * q - d, df = dp + dr * q + r * dq;
+    const double next = x - f / df;
+    if (!(next >= lo && next <= hi)) break;
+    x = next;
+  }
+  return x;
+}
+
+//! A candidate profile after the braking pre-phase, in the frame mirrored so that its first jerk is
+//! +j_max (jerk_sign -1 undoes the mirror): a head (jerk J for t0, a plateau t1, jerk -J for t2), a
+//! cruise of cruise_s, and the time-optimal stop from the state reached. For a no-cruise profile
+//! the head is its first ramp and plateau (for UDUD also the ramp to zero acceleration); for a
+//! cruise member it is the time-optimal change to the cruise velocity, kept from the solving so
+//! that building does not compute it again.
+//! No default member values: every candidate is written in full when added, and the unused slots
+//! of Candidates are then left unwritten (initialising all of them cost more than the solving).
+struct Candidate {
+  double duration_s;
+  double t0_s, t1_s, t2_s;  //!< [s] the head's phases
+  //! +1, or -1 when the head's first ramp has jerk -J (a change to the cruise velocity whose start
+  //! rounding put above it)
+  double head_sign;
+  double cruise_s;  //!< [s], 0 for a no-cruise profile
+  double jerk_sign;
+  //! [m/s] (mirrored) velocity where the acceleration passes through zero between the change to
+  //! it and the change to rest (> 0 for UDDU, < 0 for UDUD); 0 for an early turn, which has none.
+  double peak_velocity;
+  bool tried;  //!< built once and failed the end-state check
+};
+
+constexpr std::size_t kMaxCandidates = 32;
+
+//! Only items[0, count) are meaningful.
+struct Candidates {
+  std::array<Candidate, kMaxCandidates> items;
+  std::size_t count = 0;
+  void add(const Candidate& c) noexcept {
+    if (count < items.size() && std::isfinite(c.duration_s)) items[count++] = c;
+  }
+};
+
+//! Tolerances of the validity checks on a candidate: durations a rounding below zero are empty
+//! phases, and the limits hold to 1e-12 relative (the tests check 1e-9).
+constexpr double kTimeTolerance = 1e-12;
+constexpr double kLimitTolerance = 1e-12;
+
+//! The UDDU candidates with first jerk +j (the caller mirrors v0, a0, d for -j): jerk +J to the
+//! acceleration x (or a plateau at A = a_max), -J to z <= 0 (or a plateau at -A), +J to zero; the
+//! velocity ends at zero when z^2 = x^2 + c with c = J v0 - a0^2/2. Each type (neither plateau,
+//! ACC0, ACC1, both) leaves one unknown and a polynomial from the position; the cruise at +v_max
+//! (VEL) is closed-form. x < 0 is allowed: the acceleration turns towards zero without reaching
+//! it before the stop (the "early turn").
+void uddu_candidates(double v0, double a0, double d, const JointLimits& lim, double jerk_sign,
+                     Candidates& out) noexcept {
+  const double J = lim.max_jerk, A = lim.max_acceleration, v_max = lim.max_velocity;
+  const double c = J * v0 - a0 * a0 / 2.0;
+  const double v_lim = v_max * (1.0 + kLimitTolerance);
+  std::array<double, kMaxDegree> roots{};
+  const auto add = [&](double duration, double t0, double t1, double peak_velocity) {
+    out.add({duration, std::max(t0, 0.0), std::max(t1, 0.0), 0.0, 1.0, 0.0, jerk_sign, peak_velocity, false});
+  };
+  const double a0_2 = a0 * a0, a0_3 = a0_2 * a0, J_2 = J * J, v0_2 = v0 * v0;
+  // Terms of the position equation shared by the plateau types.
+  const double shared = -24.0 * A * J_2 * d - 24.0 * A * J * a0 * v0 + 8.0 * A * a0_3;
+  // The checks below on a root, as bounds on the square of the acceleration it gives, so that each
+  // type's interval holds only roots they can accept (most of those intervals are then empty, or
+  // have no root by the Taylor bound): the peak velocity v0 + (2 x^2 - a0^2)/(2 J) of an x > 0,
+  // and z^2/J of ACC0's, is at most v_lim when x^2 (z^2) <= J v_lim - c (J v_lim); a plateau is
+  // not shorter than -kTimeTolerance when x^2 >= A^2 - c (ACC1) or z^2 >= A^2 + c (ACC0). Each bound
+  // is widened by a margin well above its rounding, so no root the checks accept is left out.
+  const double margin = 1e-9 * (J * v_lim + std::abs(c) + A * A) + kTimeTolerance * A * J;
+  const double peak_sq = J * v_lim - c + margin;
+
+  // VEL: cruise at +v_max.
+  {
+    const VelocityChange c1 = velocity_change(v0, a0, v_max, A, J);
+    const VelocityChange c2 = velocity_change(v_max, 0.0, 0.0, A, J);
+    const double changes_distance = apply({0.0, v0, a0}, c1).position + distance_to_rest(v_max, c2);
+    const double cruise = (d - changes_distance) / v_max;
+    if (cruise >= 0.0) {
+      out.add({c1.t1 + c1.t2 + c1.t3 + cruise + c2.t1 + c2.t2 + c2.t3, c1.t1, c1.t2, c1.t3, c1.jerk > 0.0 ? 1.0 : -1.0,
+               cruise, jerk_sign, v_max, false});
+    }
+  }
+  // NONE: unknown x in [a0, A] with x^2 + c in [0, A^2]; the position is P(x) + z Q(x) = d with
+  // z = -sqrt(x^2 + c), squared into a quartic (its spurious roots, z > 0, fail the residual).
+  {
+    double lo = a0, hi = A;
+    if (c < 0.0) lo = std::max(lo, std::sqrt(-c));
+    if (A * A - c < 0.0) hi = lo - 1.0;
+    else hi = std::min({hi, std::sqrt(A * A - c), std::sqrt(std::max(peak_sq, 0.0))});
+    // The coefficients only for an interval that is not empty (most are not).
+    if (lo <= hi) {
+      const double k = 2.0 * c, h = 3.0 * J_2 * d + 3.0 * J * a0 * v0 - a0_3;
+      const double coef[5] = {(-72.0 * J_2 * J_2 * d * d - 144.0 * J_2 * J * a0 * d * v0 +
+                               72.0 * J_2 * J * v0_2 * v0 + 48.0 * J_2 * a0_3 * d - 180.0 * J_2 * a0_2 * v0_2 +
+                               102.0 * J * a0_2 * a0_2 * v0 - 17.0 * a0_3 * a0_3) / 72.0,
+                              2.0 / 3.0 * k * h, -k * k / 4.0, 2.0 / 3.0 * h, -k / 2.0};
+      const int n = real_roots<4>(coef, lo, hi, roots.data());
+      for (int i = 0; i < n; ++i) {
+        const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, -1.0);
+        const double z = -std::sqrt(std::max(x * x + c, 0.0));
+        const double p =
+            (-3.0 * J * a0 * v0 + 6.0 * J * v0 * x + a0_3 - 3.0 * a0_2 * x + 3.0 * x * x * x) / (3.0 * J_2);
+        const double q = -(k + 2.0 * x * x) / (2.0 * J_2);
+        if (!(std::abs(p + z * q - d) <= 1e-6 * (std::abs(p) + std::abs(z * q) + std::abs(d)))) continue;
+        if (x < z - kTimeTolerance * J) continue;
+        const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
+        if (peak > v_lim) continue;
+        add((2.0 * x - a0 - 2.0 * z) / J, (x - a0) / J, 0.0, peak);
+      }
+    }
+  }
+  // ACC0: x = A; unknown z in [-A, 0]; t1 = (z^2 - A^2 - c)/(A J).
+  {
+    const double z_lo = -std::sqrt(std::min(A * A, std::max(J * v_lim + margin, 0.0)));
+    const double z_hi = -std::sqrt(std::max(A * A + c - margin, 0.0));
+    if (z_lo <= z_hi) {
+      const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
+                                  12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2,
+                              0.0, 12.0 * A * A, -24.0 * A, 12.0};
+      const int n = real_roots<4>(coef, z_lo, z_hi, roots.data());
+      for (int i = 0; i < n; ++i) {
+        const double z = roots[static_cast<std::size_t>(i)];
+        const double t1 = (z * z - A * A - c) / (A * J);
+        if (t1 < -kTimeTolerance) continue;
+        const double peak = v0 + (A * A - a0_2) / (2.0 * J) + A * std::max(t1, 0.0) + A * A / (2.0 * J);
+        if (peak > v_lim) continue;
+        add((A - a0) / J + std::max(t1, 0.0) + (A - 2.0 * z) / J, (A - a0) / J, t1, peak);
+      }
+    }
+  }
+  // ACC1: z = -A; unknown x in [max(a0, -A), A]; t5 = (x^2 - A^2 + c)/(A J).
+  {
+    // x <= -x_min (an early turn, the peak check not applying) or x in [x_min, x_max].
+    const double x_min = std::sqrt(std::max(A * A - c - margin, 0.0));
+    const double x_max = std::min(A, std::sqrt(std::max(peak_sq, 0.0)));
+    const double lo = std::max(a0, -A);
+    if (lo <= -x_min || (x_min > 0.0 ? std::max(lo, x_min) : lo) <= x_max) {
+      const double k = 2.0 * J * v0 - a0_2;
+      const double coef[5] = {12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared + 12.0 * J_2 * v0_2 -
+                                  12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
+                              24.0 * A * k, 12.0 * (A * A + k), 24.0 * A, 12.0};
+      std::array<double, 2 * 4> split_roots{};  // up to four in each part
+      int n = 0;
+      if (x_min > 0.0) n = real_roots<4>(coef, lo, -x_min, split_roots.data());
+      n += real_roots<4>(coef, x_min > 0.0 ? std::max(lo, x_min) : lo, x_max, split_roots.data() + n);
+      for (int i = 0; i < n; ++i) {
+        const double x = split_roots[static_cast<std::size_t>(i)];
+        const double t5 = (x * x - A * A + c) / (A * J);
+        if (t5 < -kTimeTolerance) continue;
+        const double peak = x > 0.0 ? v0 + (2.0 * x * x - a0_2) / (2.0 * J) : 0.0;
+        if (peak > v_lim) continue;
+        add((x - a0) / J + (x + A) / J + std::max(t5, 0.0) + A / J, (x - a0) / J, 0.0, peak);
+      }
+    }
+  }
+  // ACC0_ACC1: x = A, z = -A; unknown t1 >= 0; t5 = t1 + c/(A J).
+  // Its peak velocity is at least (A^2 + c)/J (ACC0 too): skipped when that is beyond v_lim.
+  if (A * A + c <= J * v_lim + margin) {
+    const double coef[3] = {48.0 * A * A * A * A + 84.0 * A * A * J * v0 - 42.0 * A * A * a0_2 + shared +
+                                12.0 * J_2 * v0_2 - 12.0 * J * a0_2 * v0 + 3.0 * a0_2 * a0_2,
+                            24.0 * A * J * (3.0 * A * A + 2.0 * J * v0 - a0_2), 24.0 * A * A * J_2};
+    // Degree two: the stable quadratic formula (c2 > 0); a slightly negative discriminant is a
+    // double root lifted by rounding.
+    const double disc = coef[1] * coef[1] - 4.0 * coef[2] * coef[0];
+    int n = 0;
+    if (disc >= -1e-12 * coef[1] * coef[1]) {
+      const double q = -(coef[1] + std::copysign(std::sqrt(std::max(disc, 0.0)), coef[1])) / 2.0;
+      roots[0] = q / coef[2];
+      roots[1] = q != 0.0 ? coef[0] / q : roots[0];
+      n = 2;
+    }
+    for (int i = 0; i < n; ++i) {
+      const double t1 = roots[static_cast<std::size_t>(i)];
+      const double t5 = t1 + c / (A * J);
+      if (t1 < -kTimeTolerance || t5 < -kTimeTolerance) continue;
+      const double peak = v0 + (A * A - a0_2) / (2.0 * J) + A * t1 + A * A / (2.0 * J);
+      if (peak > v_lim) continue;
+      add((A - a0) / J + t1 + 3.0 * A / J + std::max(t5, 0.0), (A - a0) / J, t1, peak);
+    }
+  }
+}
+
+bool finite(double x) noexcept { return std::isfinite(x); }
+
+//! Appends the braking pre-phase: bring |a| to a_max, then, if the velocity is or will be beyond
+//! v_max, follow the time-optimal velocity change to (±v_max, 0) until the first instant where
+//! |v| <= v_max and the velocity at zero acceleration is inside the limits too.
+bool append_brake(const JointLimits& lim, Profile& out) noexcept {
+  const double v_max = lim.max_velocity, a_max = lim.max_acceleration, j_max = lim.max_jerk;
+  JointState st = out.end_state();
+  if (st.acceleration > a_max) {
+    if (!out.append((st.acceleration - a_max) / j_max, -j_max)) return false;
+  } else if (st.acceleration < -a_max) {
+    if (!out.append((-a_max - st.acceleration) / j_max, j_max)) return false;
+  }
+  st = out.end_state();
+  st.acceleration = std::clamp(st.acceleration, -a_max, a_max);  // rounding of the ramp above
+  const auto v_at_zero_a = [j_max](const JointState& s) {
+    return s.velocity + s.acceleration * std::abs(s.acceleration) / (2.0 * j_max);
+  };
+  const double v_az = v_at_zero_a(st);
+  if (std::abs(st.velocity) <= v_max && std::abs(v_az) <= v_max) return true;
+  const double side = std::abs(v_az) > v_max ? (v_az > 0.0 ? 1.0 : -1.0) : (st.velocity > 0.0 ? 1.0 : -1.0);
+  const VelocityChange c = velocity_change(st.velocity, st.acceleration, side * v_max, a_max, j_max);
+  const std::array<double, 3> durations{c.t1, c.t2, c.t3};
+  const std::array<double, 3> jerks{c.jerk, 0.0, -c.jerk};
+  for (std::size_t i = 0; i < 3; ++i) {
+    // First downward crossing of side*v = v_max in this phase (side*a <= 0 there).
+    const double j = side * jerks[i], a = side * st.acceleration, dv = side * st.velocity - v_max;
+    double t_cross = std::numeric_limits<double>::infinity();
+    if (j == 0.0) {
+      if (a < 0.0 && dv >= 0.0) t_cross = -dv / a;
+    } else {
+      const double disc = a * a - 2.0 * j * dv;
+      if (disc >= 0.0) {
+        const double r = std::sqrt(disc);
+        for (const double t : {(-a - r) / j, (-a + r) / j}) {
+          if (t >= 0.0 && a + j * t <= 0.0 && t < t_cross) t_cross = t;
+        }
+      }
+    }
+    if (t_cross <= durations[i]) {
+      const JointState at = advance(st, jerks[i], t_cross);
+      if (std::abs(v_at_zero_a(at)) <= v_max) {
+        return out.append(t_cross, jerks[i]);
+      }
+    }
+    if (!out.append(durations[i], jerks[i])) return false;
+    st = out.end_state();
+  }
+  return true;
+}
+
+//! The UDUD candidates with first jerk +j (mirrored as for UDDU): jerk +J to x >= 0 (or a plateau at
+//! A), -J to zero acceleration at a velocity vp < 0, +J to w >= 0 (or a plateau at A), -J to zero;
+//! the velocity ends at zero when x^2 + w^2 = -c. They are needed when the target lies just short
+//! of where the time-optimal stop would end: the stop has jerk pattern +J, -J, and stopping a little
+//! earlier means reaching a velocity between the one at zero acceleration and zero first. Both
+//! velocity extremes (at zero acceleration) lie between that velocity and zero, inside the limits.
+void udud_candidates(double v0, double a0, double d, const JointLimits& lim, double jerk_sign,
+                     Candidates& out) noexcept {
+  const double J = lim.max_jerk, A = lim.max_acceleration;
+  const double c = J * v0 - a0 * a0 / 2.0;
+  if (!(c < 0.0)) return;  // no vp < 0 with zero acceleration is reachable by a +J first ramp
+  std::array<double, kMaxDegree> roots{};
+  const double a0_2 = a0 * a0, a0_3 = a0_2 * a0, J_2 = J * J, v0_2 = v0 * v0;
+  const auto add = [&](double duration, double t0, double t1, double t2, double peak_velocity) {
+    out.add({duration, std::max(t0, 0.0), std::max(t1, 0.0), std::max(t2, 0.0), 1.0, 0.0, jerk_sign, peak_velocity,
+             false});
+  };
+  // Velocity at the zero acceleration between the ramps, after a plateau of t1 at A.
+  const auto plateau_peak = [&](double t1) { return v0 + (A * A - a0_2) / (2.0 * J) + A * t1 + A * A / (2.0 * J); };
+  const double shared = -24.0 * A * J_2 * d - 24.0 * A * J * a0 * v0 + 8.0 * A * a0_3;
+  const double plateau_c0 = 12.0 * A * A * J * v0 - 6.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
+                            12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2;
+  const double x_lo = std::max(a0, 0.0);
+  // NONE: unknown x with w = sqrt(-(x^2 + c)) in [0, A]; P(x) + w Q(x) = d squared into a sextic.
+  {
+    const double k = 2.0 * c, h = 3.0 * J_2 * d + 3.0 * J * a0 * v0 - a0_3;
+    const double coef[7] = {-(72.0 * J_2 * J_2 * d * d + 144.0 * J_2 * J * a0 * d * v0 + 72.0 * J_2 * J * v0_2 * v0 -
+                              48.0 * J_2 * a0_3 * d - 36.0 * J_2 * a0_2 * v0_2 + 6.0 * J * a0_2 * a0_2 * v0 -
+                              a0_3 * a0_3) / 72.0,
+                            2.0 / 3.0 * k * h, -7.0 / 4.0 * k * k, 2.0 / 3.0 * h, -7.0 / 2.0 * k, 0.0, -2.0};
+    const double lo = std::max(x_lo, std::sqrt(std::max(-c - A * A, 0.0)));
+    const double hi = std::min(A, std::sqrt(-c));
+    const int n = real_roots<6>(coef, lo, hi, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double x = polish_none(roots[static_cast<std::size_t>(i)], lo, hi, v0, a0, d, J, 1.0);
+      const double w = std::sqrt(std::max(-(x * x + c), 0.0));
+      const double p = (-3.0 * J * a0 * v0 + 6.0 * J * v0 * x + a0_3 - 3.0 * a0_2 * x + 3.0 * x * x * x) / (3.0 * J_2);
+      const double q = (k + 2.0 * x * x) / (2.0 * J_2);
+      if (!(std::abs(p + w * q - d) <= 1e-6 * (std::abs(p) + std::abs(w * q) + std::abs(d)))) continue;
+      add((2.0 * x - a0 + 2.0 * w) / J, (x - a0) / J, 0.0, x / J, -w * w / J);
+    }
+  }
+  // A plateau is not shorter than -kTimeTolerance when the acceleration w (ACC0) or x (ACC1) of the
+  // other ramp pair has a square at most -(A^2 + c) (widened as in the UDDU types): the only part
+  // of the interval where a root can be accepted.
+  const double plateau_sq = -(A * A + c) + 1e-9 * (A * A + std::abs(c)) + kTimeTolerance * A * J;
+  const double plateau_hi = plateau_sq >= 0.0 ? std::min(A, std::sqrt(plateau_sq)) : -1.0;
+  // ACC0: x = A; unknown w in [0, A]; t1 = -(A^2 + c + w^2)/(A J).
+  {
+    const double coef[5] = {plateau_c0, 0.0, -12.0 * A * A, -24.0 * A, 12.0};
+    const int n = real_roots<4>(coef, 0.0, plateau_hi, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double w = roots[static_cast<std::size_t>(i)];
+      const double t1 = -(A * A + c + w * w) / (A * J);
+      if (t1 < -kTimeTolerance) continue;
+      add((A - a0) / J + std::max(t1, 0.0) + (A + 2.0 * w) / J, (A - a0) / J, t1, A / J, plateau_peak(t1));
+    }
+  }
+  // ACC1: w = A; unknown x in [max(a0, 0), A]; t5 = -(A^2 + c + x^2)/(A J).
+  {
+    const double k = 2.0 * J * v0 - a0_2;
+    const double coef[5] = {plateau_c0, 24.0 * A * k, -12.0 * (k - A * A), 24.0 * A, -12.0};
+    const int n = real_roots<4>(coef, x_lo, plateau_hi, roots.data());
+    for (int i = 0; i < n; ++i) {
+      const double x = roots[static_cast<std::size_t>(i)];
+      const double t5 = -(A * A + c + x * x) / (A * J);
+      if (t5 < -kTimeTolerance) continue;
+      add((2.0 * x - a0) / J + 2.0 * A / J + std::max(t5, 0.0), (x - a0) / J, 0.0, x / J, (x * x + c) / J);
+    }
+  }
+  // ACC0_ACC1: x = w = A; unknown t1 >= 0 (linear); t5 = -t1 - (2 A^2 + c)/(A J).
+  {
+    const double c0 = 24.0 * A * A * A * A + 36.0 * A * A * J * v0 - 18.0 * A * A * a0_2 + shared - 12.0 * J_2 * v0_2 +
+                      12.0 * J * a0_2 * v0 - 3.0 * a0_2 * a0_2;
+    const double t1 = -c0 / (24.0 * A * A * A * J);
+    const double t5 = -t1 - (2.0 * A * A + c) / (A * J);
+    if (t1 >= -kTimeTolerance && t5 >= -kTimeTolerance) {
+      add((A - a0) / J + std::max(t1, 0.0) + 3.0 * A / J + std::max(t5, 0.0), (A - a0) / J, t1, A / J,
+          plateau_peak(t1));
+    }
+  }
+}
+
+//! Appends the candidate's phases to `out` (which ends after the braking pre-phase) and checks the
+//! end state. The stop (or change to rest) is built from the state actually reached, so it ends at
+//! zero velocity and acceleration exactly; a cruise is re-timed once from the position error, so
+//! that a velocity rounding error is not multiplied by a long cruise.
+bool build(const Candidate& c, double target_position, const JointLimits& lim, Profile& out) noexcept {
+  const double a_max = lim.max_acceleration, j_max = lim.max_jerk;
+  const double jerk = c.jerk_sign * c.head_sign * j_max;
+  if (!(out.append(c.t0_s, jerk) && out.append(c.t1_s, 0.0) && out.append(c.t2_s, -jerk))) return false;
+  JointState head = out.end_state();
+  head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
+  const VelocityChange stop = velocity_change(head.velocity, head.acceleration, 0.0, a_max, j_max);
+  double cruise = c.cruise_s;
+  if (cruise > 0.0) {
+    // The re-timing changes only the cruise, so the stop is the same after it. The end position is
+    // integrated as append will, without appending the phases only to drop them again.
+    const JointState end = apply(advance(out.end_state(), 0.0, cruise), stop);
+    cruise = std::max(cruise - (end.position - target_position) / head.velocity, 0.0);
+  }
+  const bool appended = out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
+                        out.append(stop.t3, -stop.jerk);
+  const JointState& end = out.end_state();
+  return appended && std::abs(end.position - target_position) <= 1e-8 && std::abs(end.velocity) <= 1e-9 &&
+         std::abs(end.acceleration) <= 1e-9;
+}
+
+}  // namespace
+
+namespace {
+
+CalculationResult validate(const JointState& start, const JointLimits& limits) noexcept {
+  const auto invalid = [](InvalidField f) { return CalculationResult{TrajectoryStatus::ErrorInvalidInput, f}; };
+  if (!(finite(limits.max_velocity) && limits.max_velocity > 0.0)) return invalid(InvalidField::MaxVelocity);
+  if (!(finite(limits.max_acceleration) && limits.max_acceleration > 0.0)) return invalid(InvalidField::MaxAcceleration);
+  if (!(finite(limits.max_jerk) && limits.max_jerk > 0.0)) return invalid(InvalidField::MaxJerk);
+  if (!finite(start.position)) return invalid(InvalidField::CurrentPosition);
+  if (!finite(start.velocity)) return invalid(InvalidField::CurrentVelocity);
+  if (!finite(start.acceleration)) return invalid(InvalidField::CurrentAcceleration);
+  return {};
+}
+
+}  // namespace
+
+namespace {
+
+//! What stretching one joint's move to a longer duration needs, kept from its time-optimal
+//! calculation. A stretched profile is the time-optimal change to a cruise velocity vp, a cruise at
+//! vp, and the time-optimal change to rest. As |vp| falls to zero on the side where the stop alone
+//! falls short of the target (`side`), the cruise grows without bound; towards larger |vp| the
+//! cruise shrinks to nothing at the first no-cruise profile on that side (or at v_max). So every
+//! duration from that profile's on is reachable, and the durations between the time-optimal one and
+//! it (when they differ: the time-optimal profile is an early turn or on the other side) are the
+//! blocked interval.
+struct Stretch {
+  JointState start{};            //!< after the braking pre-phase, its acceleration clamped
+  double brake_s = 0.0;          //!< [s] the braking pre-phase
+  double min_s = 0.0;            //!< [s] time-optimal duration, pre-phase included
+  double distance = 0.0;         //!< [m] from `start` to the target
+  double side = 1.0;             //!< sign of the cruise velocity of stretched profiles
+  double peak_end = 0.0;         //!< [m/s] largest |vp| of the stretchable branch
+  double stretch_from_s = 0.0;   //!< [s] shortest stretched duration, pre-phase included
+  double stop_distance = 0.0;    //!< [m] of the time-optimal stop from `start`
+};
+
+CalculationResult time_optimal(const JointState& start, double target_position, const JointLimits& limits,
+                               Profile& out, Stretch* stretch) noexcept {
+  out.reset(start);
+  if (const CalculationResult r = validate(start, limits); !r.ok()) return r;
+  if (!finite(target_position)) return {TrajectoryStatus::ErrorInvalidInput, InvalidField::TargetPosition};
+
+  if (!append_brake(limits, out)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  out.brake_phase_count = out.phase_count();
+  JointState s = out.end_state();
+  s.acceleration = std::clamp(s.acceleration, -limits.max_acceleration, limits.max_acceleration);
+
+  const double d = target_position - s.position;
+  const double brake_s = out.duration();
+  if (stretch != nullptr) *stretch = {s, brake_s, brake_s, d, 1.0, 0.0, brake_s, 0.0};
+  if (d == 0.0 && s.velocity == 0.0 && s.acceleration == 0.0) return {};
+  // The time-optimal stop decides which way the target lies from where the joint would stop. The
+  // fastest profile is then a UDDU of that direction (with every type solved, no other type was
+  // faster in a million random problems of the property test), so those are solved first, and
+  // every type of both directions only if none of them builds (never, in those problems).
+  const VelocityChange stop = velocity_change(s.velocity, s.acceleration, 0.0, limits.max_acceleration,
+                                              limits.max_jerk);
+  const double stop_distance = apply({0.0, s.velocity, s.acceleration}, stop).position;
+  const double side = d - stop_distance >= 0.0 ? 1.0 : -1.0;
+  const std::size_t brake_phases = out.phase_count();
+  Candidates candidates;
+  bool built = false;
+  for (int pass = 0; pass < 2 && !built; ++pass) {
+    candidates.count = 0;
+    // A target where the stop ends: every type below meets it only at the end of its interval (a
+    // ramp of zero length), where rounding may lose it. No move to rest is faster.
+    if (std::abs(stop_distance - d) <= 1e-9) {
+      candidates.add({stop.t1 + stop.t2 + stop.t3, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, false});
+    }
+    uddu_candidates(side * s.velocity, side * s.acceleration, side * d, limits, side, candidates);
+    // A stretch needs every no-cruise profile whose zero-acceleration velocity points to `side`
+    // (UDDU that way, UDUD the other), not only the fastest.
+    if (pass == 1 || stretch != nullptr) {
+      udud_candidates(-side * s.velocity, -side * s.acceleration, -side * d, limits, -side, candidates);
+    }
+    if (pass == 1) {
+      uddu_candidates(-side * s.velocity, -side * s.acceleration, -side * d, limits, -side, candidates);
+      udud_candidates(side * s.velocity, side * s.acceleration, side * d, limits, side, candidates);
+    }
+
+    // The fastest candidate that builds to the exact end state; a later one only if rounding made
+    // the fastest miss it.
+    for (std::size_t attempt = 0; attempt < candidates.count && !built; ++attempt) {
+      Candidate* best = nullptr;
+      for (std::size_t i = 0; i < candidates.count; ++i) {
+        Candidate& c = candidates.items[i];
+        if (!c.tried && (best == nullptr || c.duration_s < best->duration_s)) best = &c;
+      }
+      if (best == nullptr) break;
+      best->tried = true;
+      out.truncate(brake_phases);
+      built = build(*best, target_position, limits, out);
+    }
+  }
+  if (!built) {
+    out.truncate(brake_phases);
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  if (stretch != nullptr) {
+    Stretch& st = *stretch;
+    st.min_s = out.duration();
+    st.side = side;
+    st.stop_distance = stop_distance;
+    st.peak_end = 0.0;
+    st.stretch_from_s = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < candidates.count; ++i) {
+      const Candidate& c = candidates.items[i];
+      const double vp = c.jerk_sign * c.peak_velocity;
+      if (!(vp * st.side > 0.0)) continue;
+      if (st.peak_end == 0.0 || std::abs(vp) < st.peak_end) {
+        st.peak_end = std::abs(vp);
+        st.stretch_from_s = brake_s + c.duration_s;
+      }
+    }
+    st.stretch_from_s = std::max(st.stretch_from_s, st.min_s);
+  }
+  return {};
+}
+
+//! side * (position error) of the stretched profile with cruise velocity side * u lasting `after_s`
+//! in all: negative at u = 0 (the stop falls short), positive at the branch end.
+double stretch_error(const Stretch& st, const JointLimits& lim, double u, double after_s) noexcept {
+  const double vp = st.side * u;
+  const VelocityChange c1 = velocity_change(st.start.velocity, st.start.acceleration, vp, lim.max_acceleration,
+                                            lim.max_jerk);
+  const VelocityChange c2 = velocity_change(vp, 0.0, 0.0, lim.max_acceleration, lim.max_jerk);
+  const double changes_s = c1.t1 + c1.t2 + c1.t3 + c2.t1 + c2.t2 + c2.t3;
+  const double distance =
+      apply({0.0, st.start.velocity, st.start.acceleration}, c1).position + distance_to_rest(vp, c2);
+  return st.side * (distance + vp * (after_s - changes_s) - st.distance);
+}
+
+//! Builds the stretched profile of duration_s into `out` (which holds the time-optimal one, whose
+//! pre-phase is kept): the cruise velocity by Illinois regula falsi with bisection steps on
+//! [0, peak_end], the cruise taking the time the two changes leave.
+CalculationResult stretch_to(const Stretch& st, double target_position, const JointLimits& lim, double duration_s,
+                             Profile& out) noexcept {
+  const double after_s = duration_s - st.brake_s;
+  double lo = 0.0, hi = st.peak_end;
+  // The ends' errors in closed form: at u = 0 the profile is the stop; at the branch end the
+  // no-cruise profile reaches the target, and the time left is cruised at the peak velocity.
+  double f_lo = st.side * (st.stop_distance - st.distance);
+  double f_hi = hi * (after_s - (st.stretch_from_s - st.brake_s));
+  double u = f_lo >= 0.0 ? lo : hi;
+  if (f_lo < 0.0 && f_hi > 0.0) {
+    // Regula falsi with the Anderson-Björck correction (the retained end's value is scaled down
+    // when the same end is kept twice), which converges superlinearly on this smooth error.
+    int side = 0;
+    for (int i = 0; i < 100; ++i) {
+      u = (f_lo * hi - f_hi * lo) / (f_lo - f_hi);
+      if (!(u > lo && u < hi)) u = lo + (hi - lo) / 2.0;
+      if (u <= lo || u >= hi) break;
+      const double f = stretch_error(st, lim, u, after_s);
+      // f is the end position error [m] of the profile that would be built: a hundredth of the
+      // guaranteed 1e-8 is enough.
+      if (std::abs(f) <= 1e-10) break;
+      if (f < 0.0) {
+        if (side == -1) {
+          const double m = 1.0 - f / f_lo;
+          f_hi *= m > 0.0 ? m : 0.5;
+        }
+        lo = u;
+        f_lo = f;
+        side = -1;
+      } else {
+        if (side == 1) {
+          const double m = 1.0 - f / f_hi;
+          f_lo *= m > 0.0 ? m : 0.5;
+        }
+        hi = u;
+        f_hi = f;
+        side = 1;
+      }
+      if (!(hi - lo > 4.0 * std::numeric_limits<double>::epsilon() * hi)) break;
+    }
+    if (!(u >= lo && u <= hi)) u = std::abs(f_lo) <= std::abs(f_hi) ? lo : hi;
+  }
+  const double vp = st.side * u;
+  out.truncate(out.brake_phase_count);
+  const VelocityChange c1 = velocity_change(st.start.velocity, st.start.acceleration, vp, lim.max_acceleration,
+                                            lim.max_jerk);
+  if (!(out.append(c1.t1, c1.jerk) && out.append(c1.t2, 0.0) && out.append(c1.t3, -c1.jerk))) {
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  JointState peak = out.end_state();
+  peak.acceleration = std::clamp(peak.acceleration, -lim.max_acceleration, lim.max_acceleration);
+  const VelocityChange c2 = velocity_change(peak.velocity, peak.acceleration, 0.0, lim.max_acceleration, lim.max_jerk);
+  const double cruise_s = std::max(duration_s - out.duration() - (c2.t1 + c2.t2 + c2.t3), 0.0);
+  if (!(out.append(cruise_s, 0.0) && out.append(c2.t1, c2.jerk) && out.append(c2.t2, 0.0) &&
+        out.append(c2.t3, -c2.jerk))) {
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  const JointState& end = out.end_state();
+  if (!(std::abs(end.position - target_position) <= 1e-8) || !(std::abs(end.velocity) <= 1e-9) ||
+      !(std::abs(end.acceleration) <= 1e-9) || !(std::abs(out.duration() - duration_s) <= 1e-9 * duration_s)) {
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  return {};
+}
+
+//! Relative margin within which a requested duration counts as the time-optimal one.
+constexpr double kSameDuration = 1e-12;
+
+}  // namespace
+
+CalculationResult calculate_time_optimal(const JointState& start, double target_position, const JointLimits& limits,
+                                         Profile& out) noexcept {
+  return time_optimal(start, target_position, limits, out, nullptr);
+}
+
+SynchronizedResult calculate_synchronized(const JointState* start, const double* target_position,
+                                          const JointLimits* limits, std::size_t joint_count, Profile* out) noexcept {
+  SynchronizedResult result;
+  if (joint_count == 0 || joint_count > kMaxSynchronizedJoints) {
+    result.status = TrajectoryStatus::ErrorInvalidInput;
+    result.field = InvalidField::JointCount;
+    result.joint = joint_count;
+    return result;
+  }
+  std::array<Stretch, kMaxSynchronizedJoints> st{};
+  double duration_s = 0.0;
+  for (std::size_t i = 0; i < joint_count; ++i) {
+    const CalculationResult r = time_optimal(start[i], target_position[i], limits[i], out[i], &st[i]);
+    if (!r.ok()) return {r.status, r.field, i, 0.0};
+    duration_s = std::max(duration_s, st[i].min_s);
+  }
+  // The least duration no joint has blocked: the slowest joint's minimum, or else the least
+  // stretched-profile start beyond it that every joint can take (Ruckig's blocked intervals).
+  const auto takes = [&](double t) {
+    for (std::size_t i = 0; i < joint_count; ++i) {
+      if (t > st[i].min_s * (1.0 + kSameDuration) && t < st[i].stretch_from_s) return false;
+    }
+    return true;
+  };
+  if (!takes(duration_s)) {
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < joint_count; ++i) {
+      if (st[i].stretch_from_s > duration_s && st[i].stretch_from_s < best && takes(st[i].stretch_from_s)) {
+        best = st[i].stretch_from_s;
+      }
+    }
+    if (!std::isfinite(best)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None, joint_count, 0.0};
+    duration_s = best;
+  }
+  for (std::size_t i = 0; i < joint_count; ++i) {
+    if (duration_s <= st[i].min_s * (1.0 + kSameDuration)) continue;
+    const CalculationResult r = stretch_to(st[i], target_position[i], limits[i], duration_s, out[i]);
+    if (!r.ok()) return {r.status, r.field, i, duration_s};
+  }
+  result.duration_s = duration_s;
+  return result;
+}
+
+}  // namespace mgc::bench::baseline
