@@ -861,6 +861,80 @@ CalculationResult stretch_to(const Stretch& st, double target_position, const Jo
 //! Relative margin within which a requested duration counts as the time-optimal one.
 constexpr double kSameDuration = 1e-12;
 
+//! Durations from the time-optimal one up to the stretched family's first (the blocked interval of
+//! that family) are filled by the time-optimal profile under the jerk limit lowered to
+//! lambda j_max: a profile within the true limits whose duration rises continuously from the
+//! minimum as lambda falls (a lower limit never allows a faster profile). lambda stays above the
+//! value at which the start, after the braking pre-phase, would have to brake under the lowered
+//! limit (its velocity at zero acceleration v + a|a|/(2 lambda j_max) beyond v_max), so the braking
+//! rule never applies to it; 0 when no lambda < 1 qualifies.
+double fill_lambda_floor(const Stretch& st, const JointLimits& lim) noexcept {
+  const double a = st.start.acceleration, v = st.start.velocity;
+  if (a == 0.0) return 1e-9;
+  const double room = lim.max_velocity - (a > 0.0 ? v : -v);
+  if (!(room > 0.0)) return 0.0;
+  const double floor = a * a / (2.0 * lim.max_jerk * room) * (1.0 + 1e-9);
+  return floor < 1.0 ? std::max(floor, 1e-9) : 0.0;
+}
+
+//! The time-optimal move from the state after the pre-phase under jerk lambda j_max, into
+//! `scratch`; its duration with the pre-phase, or infinity if it failed.
+double fill_duration(const Stretch& st, double target_position, const JointLimits& lim, double lambda,
+                     Profile& scratch) noexcept {
+  const JointLimits lowered{lim.max_velocity, lim.max_acceleration, lambda * lim.max_jerk};
+  if (!time_optimal(st.start, target_position, lowered, scratch, nullptr).ok() || scratch.brake_phase_count != 0) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return st.brake_s + scratch.duration();
+}
+
+//! Builds into `out` (whose pre-phase is kept) the filling profile of duration_s, which must lie
+//! between the minimum and the duration at the floor of lambda: lambda by Illinois regula falsi on
+//! the duration (at most 100 steps), the profile accepted when its duration is duration_s to 1e-10.
+CalculationResult fill_to(const Stretch& st, double target_position, const JointLimits& lim, double duration_s,
+                          double lambda_floor, Profile& out) noexcept {
+  Profile scratch;
+  double lo = lambda_floor, hi = 1.0;
+  double f_lo = fill_duration(st, target_position, lim, lo, scratch) - duration_s;  // >= 0
+  double f_hi = st.min_s - duration_s;                                               // <= 0
+  double best = hi, best_error = std::abs(f_hi);
+  int kept = 0;
+  for (int i = 0; i < 100 && std::isfinite(f_lo) && best_error > 1e-12 * duration_s; ++i) {
+    double lambda = (f_lo * hi - f_hi * lo) / (f_lo - f_hi);
+    if (!(lambda > lo && lambda < hi)) lambda = lo + (hi - lo) / 2.0;
+    const double f = fill_duration(st, target_position, lim, lambda, scratch) - duration_s;
+    if (!std::isfinite(f)) break;
+    if (std::abs(f) < best_error) {
+      best = lambda;
+      best_error = std::abs(f);
+    }
+    if (f > 0.0) {
+      if (kept == -1) f_hi /= 2.0;
+      lo = lambda;
+      f_lo = f;
+      kept = -1;
+    } else {
+      if (kept == 1) f_lo /= 2.0;
+      hi = lambda;
+      f_hi = f;
+      kept = 1;
+    }
+    if (!(hi - lo > 4.0 * std::numeric_limits<double>::epsilon() * hi)) break;
+  }
+  if (!(best_error <= 1e-10 * duration_s)) return {TrajectoryStatus::ErrorDuration, InvalidField::None};
+  (void)fill_duration(st, target_position, lim, best, scratch);
+  out.truncate(out.brake_phase_count);
+  for (std::size_t i = 0; i < scratch.phase_count(); ++i) {
+    if (!out.append(scratch.phase_duration(i), scratch.phase_jerk(i))) {
+      return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+    }
+  }
+  if (!reaches(out, target_position, Lim(lim)) || !(std::abs(out.duration() - duration_s) <= 1e-9 * duration_s)) {
+    return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
+  }
+  return {};
+}
+
 }  // namespace
 
 CalculationResult calculate_time_optimal(const JointState& start, double target_position, const JointLimits& limits,
@@ -877,7 +951,14 @@ CalculationResult calculate_for_duration(const JointState& start, double target_
     if (duration_s < st.min_s * (1.0 - kSameDuration)) return {TrajectoryStatus::ErrorDuration, InvalidField::None};
     return {};
   }
-  if (duration_s < st.stretch_from_s) return {TrajectoryStatus::ErrorDuration, InvalidField::None};
+  if (duration_s < st.stretch_from_s) {
+    const double floor = fill_lambda_floor(st, limits);
+    Profile scratch;
+    if (!(floor > 0.0) || duration_s > fill_duration(st, target_position, limits, floor, scratch)) {
+      return {TrajectoryStatus::ErrorDuration, InvalidField::None};
+    }
+    return fill_to(st, target_position, limits, duration_s, floor, out);
+  }
   return stretch_to(st, target_position, limits, duration_s, out);
 }
 
@@ -898,10 +979,25 @@ SynchronizedResult calculate_synchronized(const JointState* start, const double*
     duration_s = std::max(duration_s, st[i].min_s);
   }
   // The least duration no joint has blocked: the slowest joint's minimum, or else the least
-  // stretched-profile start beyond it that every joint can take (Ruckig's blocked intervals).
+  // stretched-profile start beyond it that every joint can take. A joint blocks the durations
+  // between its filled ones (up to the lowered jerk's floor, computed only when asked) and its
+  // stretched family's first.
+  std::array<double, kMaxSynchronizedJoints> floor{};
+  std::array<double, kMaxSynchronizedJoints> fill_end_s{};
+  std::array<bool, kMaxSynchronizedJoints> fill_known{};
+  Profile scratch;
+  const auto fill_end = [&](std::size_t i) {
+    if (!fill_known[i]) {
+      fill_known[i] = true;
+      floor[i] = fill_lambda_floor(st[i], limits[i]);
+      fill_end_s[i] = floor[i] > 0.0 ? fill_duration(st[i], target_position[i], limits[i], floor[i], scratch) : 0.0;
+      if (!std::isfinite(fill_end_s[i])) fill_end_s[i] = 0.0;
+    }
+    return fill_end_s[i];
+  };
   const auto takes = [&](double t) {
     for (std::size_t i = 0; i < joint_count; ++i) {
-      if (t > st[i].min_s * (1.0 + kSameDuration) && t < st[i].stretch_from_s) return false;
+      if (t > st[i].min_s * (1.0 + kSameDuration) && t < st[i].stretch_from_s && t > fill_end(i)) return false;
     }
     return true;
   };
@@ -917,7 +1013,10 @@ SynchronizedResult calculate_synchronized(const JointState* start, const double*
   }
   for (std::size_t i = 0; i < joint_count; ++i) {
     if (duration_s <= st[i].min_s * (1.0 + kSameDuration)) continue;
-    const CalculationResult r = stretch_to(st[i], target_position[i], limits[i], duration_s, out[i]);
+    const CalculationResult r =
+        duration_s < st[i].stretch_from_s && duration_s <= fill_end(i)
+            ? fill_to(st[i], target_position[i], limits[i], duration_s, floor[i], out[i])
+            : stretch_to(st[i], target_position[i], limits[i], duration_s, out[i]);
     if (!r.ok()) return {r.status, r.field, i, duration_s};
   }
   result.duration_s = duration_s;

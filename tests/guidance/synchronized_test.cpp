@@ -145,10 +145,12 @@ TEST_CASE("synchronized joints end together within their limits", "[synchronized
   CHECK(at_slowest > 4000);
 }
 
-TEST_CASE("a joint's blocked interval moves the common duration past it", "[synchronized]") {
+TEST_CASE("durations the stretched family cannot take are filled with a lower jerk", "[synchronized]") {
   // Moving fast towards a target just beyond its time-optimal stop: the fastest move brakes less,
-  // with the acceleration never passing through zero (an early turn); a stretched move must brake
-  // below the target's side first, so durations just above the minimum are blocked.
+  // with the acceleration never passing through zero (an early turn); a stretched move (changes to
+  // and from a lower cruise velocity) must brake below the target's side first, so it cannot take
+  // the durations just above the minimum (1.43 s to 1.66 s here). The time-optimal move under a
+  // lower jerk limit takes them.
   const JointLimits lim{1.0, 1.0, 1.0};
   const JointState fast{0.0, 0.9, -0.8};
   Profile stop, profile;
@@ -156,20 +158,25 @@ TEST_CASE("a joint's blocked interval moves the common duration past it", "[sync
   const double target = stop.end_state().position + 0.01;
   REQUIRE(calculate_time_optimal(fast, target, lim, profile).ok());
   const double t_min = profile.duration();
-  // Find the end of the blocked interval by bisection on the refusal.
-  double lo = t_min * (1.0 + 1e-9), hi = 10.0 * t_min + 10.0;
-  REQUIRE(calculate_for_duration(fast, target, lim, hi, profile).ok());
-  const TrajectoryStatus just_above = calculate_for_duration(fast, target, lim, lo, profile).status;
-  REQUIRE(just_above == TrajectoryStatus::ErrorDuration);
-  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
-    const double mid = (lo + hi) / 2.0;
-    (calculate_for_duration(fast, target, lim, mid, profile).ok() ? hi : lo) = mid;
+  const Move move{fast, target, lim};
+  int lowered = 0;
+  for (int k = 1; k <= 200; ++k) {
+    const double duration_s = t_min * (1.0 + 2.0 * k / 200.0);
+    const CalculationResult r = calculate_for_duration(fast, target, lim, duration_s, profile);
+    CAPTURE(k, duration_s);
+    REQUIRE(r.ok());
+    CHECK(std::abs(profile.duration() - duration_s) <= 1e-9 * duration_s);
+    CHECK(valid(profile, move));
+    double jerk = 0.0;
+    for (std::size_t i = 0; i < profile.phase_count(); ++i) jerk = std::max(jerk, std::abs(profile.phase_jerk(i)));
+    if (duration_s < 1.6 && jerk < lim.max_jerk * (1.0 - 1e-6)) ++lowered;
   }
-  const double blocked_end = hi;
-  CHECK(blocked_end > t_min * 1.01);
+  CHECK(lowered > 10);
 
-  // A second joint, at rest, whose time-optimal duration falls inside the blocked interval.
-  const double inside = (t_min + blocked_end) / 2.0;
+  // A second joint, at rest, whose time-optimal duration falls inside the stretched family's gap:
+  // the common duration is that joint's minimum, which no common duration can undercut.
+  const double inside = 1.55;
+  REQUIRE(inside > t_min);
   const JointLimits slow_lim{0.5, 0.5, 0.5};
   double lo_d = 0.0, hi_d = 100.0;  // the distance whose time-optimal duration is `inside`
   for (int i = 0; i < 200; ++i) {
@@ -177,16 +184,18 @@ TEST_CASE("a joint's blocked interval moves the common duration past it", "[sync
     REQUIRE(calculate_time_optimal({}, mid, slow_lim, profile).ok());
     (profile.duration() < inside ? lo_d : hi_d) = mid;
   }
+  REQUIRE(calculate_time_optimal({}, lo_d, slow_lim, profile).ok());
+  const double slowest = profile.duration();
   const std::array<JointState, 2> starts{fast, JointState{}};
   const std::array<double, 2> targets{target, lo_d};
   const std::array<JointLimits, 2> limits{lim, slow_lim};
   std::array<Profile, 2> out{};
   const SynchronizedResult r = calculate_synchronized(starts.data(), targets.data(), limits.data(), 2, out.data());
   REQUIRE(r.ok());
-  CHECK(r.duration_s == Approx(blocked_end).epsilon(1e-9));
-  CHECK(out[0].duration() == Approx(r.duration_s).epsilon(1e-12));
+  CHECK(r.duration_s == slowest);
+  CHECK(out[0].duration() == Approx(r.duration_s).epsilon(1e-9));
   CHECK(out[1].duration() == Approx(r.duration_s).epsilon(1e-12));
-  CHECK(std::abs(out[0].end_state().position - target) <= 1e-8);
+  CHECK(valid(out[0], move));
   CHECK(std::abs(out[1].end_state().position - lo_d) <= 1e-8);
 }
 
