@@ -888,18 +888,68 @@ double fill_duration(const Stretch& st, double target_position, const JointLimit
   return st.brake_s + scratch.duration();
 }
 
-//! Builds into `out` (whose pre-phase is kept) the filling profile of duration_s, which must lie
-//! between the minimum and the duration at the floor of lambda: lambda by Illinois regula falsi on
-//! the duration (at most 100 steps), the profile accepted when its duration is duration_s to 1e-10.
-CalculationResult fill_to(const Stretch& st, double target_position, const JointLimits& lim, double duration_s,
-                          double lambda_floor, Profile& out) noexcept {
+//! A family of filling profiles: an optional prefix phase of full jerk, then the time-optimal
+//! profile from the state after it under the jerk limit lambda j_max, lambda in [floor, 1]; its
+//! durations run continuously from `from.min_s` (lambda 1) to end_s (the floor).
+struct FillFamily {
+  Stretch from{};            //!< the state after the pre-phase and the prefix; min_s at lambda 1
+  double prefix_s = 0.0;     //!< [s]
+  double prefix_jerk = 0.0;  //!< [/s³]
+  double floor = 0.0;        //!< 0: the family is empty
+  double end_s = 0.0;        //!< [s] the duration at the floor
+};
+
+//! A joint's two filling families. The first lowers the jerk from the start. A start whose velocity
+//! at zero acceleration is at its limit (as after braking onto it) admits no lower jerk before its
+//! acceleration is zero: the second takes full jerk to zero acceleration first, after which any
+//! lower limit qualifies.
+struct Fill {
+  FillFamily first, second;
+  [[nodiscard]] bool takes(double t) const noexcept {
+    return (first.floor > 0.0 && t <= first.end_s) ||
+           (second.floor > 0.0 && t >= second.from.min_s && t <= second.end_s);
+  }
+};
+
+Fill make_fill(const Stretch& st, double target_position, const JointLimits& lim) noexcept {
+  Fill f;
   Profile scratch;
-  double lo = lambda_floor, hi = 1.0;
-  double f_lo = fill_duration(st, target_position, lim, lo, scratch) - duration_s;  // >= 0
-  double f_hi = st.min_s - duration_s;                                               // <= 0
-  double best = hi, best_error = std::abs(f_hi);
+  f.first.from = st;
+  f.first.floor = fill_lambda_floor(st, lim);
+  if (f.first.floor > 0.0) {
+    f.first.end_s = fill_duration(st, target_position, lim, f.first.floor, scratch);
+    if (!std::isfinite(f.first.end_s)) f.first.floor = 0.0;
+  }
+  const double a = st.start.acceleration;
+  if (a != 0.0) {
+    FillFamily& g = f.second;
+    g.prefix_s = std::abs(a) / lim.max_jerk;
+    g.prefix_jerk = a > 0.0 ? -lim.max_jerk : lim.max_jerk;
+    g.from = st;
+    g.from.start = advance(st.start, g.prefix_jerk, g.prefix_s);
+    g.from.start.acceleration = 0.0;
+    g.from.brake_s = st.brake_s + g.prefix_s;
+    g.from.min_s = fill_duration(g.from, target_position, lim, 1.0, scratch);
+    g.floor = fill_lambda_floor(g.from, lim);
+    g.end_s = fill_duration(g.from, target_position, lim, g.floor, scratch);
+    if (!std::isfinite(g.from.min_s) || !std::isfinite(g.end_s)) g.floor = 0.0;
+  }
+  return f;
+}
+
+//! Builds into `out` (whose pre-phase is kept) the profile of duration_s of the family, which must
+//! lie within its durations: lambda by Illinois regula falsi on the duration (at most 100 steps),
+//! the profile accepted when its duration is duration_s to 1e-10.
+CalculationResult fill_to(const FillFamily& fam, double target_position, const JointLimits& lim, double duration_s,
+                          Profile& out) noexcept {
+  const Stretch& st = fam.from;
+  Profile scratch;
+  double lo = fam.floor, hi = 1.0;
+  double f_lo = fam.end_s - duration_s;    // >= 0
+  double f_hi = st.min_s - duration_s;     // <= 0
+  double best = f_lo < -f_hi ? lo : hi, best_error = std::min(std::abs(f_lo), std::abs(f_hi));
   int kept = 0;
-  for (int i = 0; i < 100 && std::isfinite(f_lo) && best_error > 1e-12 * duration_s; ++i) {
+  for (int i = 0; i < 100 && best_error > 1e-12 * duration_s; ++i) {
     double lambda = (f_lo * hi - f_hi * lo) / (f_lo - f_hi);
     if (!(lambda > lo && lambda < hi)) lambda = lo + (hi - lo) / 2.0;
     const double f = fill_duration(st, target_position, lim, lambda, scratch) - duration_s;
@@ -924,15 +974,24 @@ CalculationResult fill_to(const Stretch& st, double target_position, const Joint
   if (!(best_error <= 1e-10 * duration_s)) return {TrajectoryStatus::ErrorDuration, InvalidField::None};
   (void)fill_duration(st, target_position, lim, best, scratch);
   out.truncate(out.brake_phase_count);
+  bool appended = out.append(fam.prefix_s, fam.prefix_jerk);
   for (std::size_t i = 0; i < scratch.phase_count(); ++i) {
-    if (!out.append(scratch.phase_duration(i), scratch.phase_jerk(i))) {
-      return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
-    }
+    appended = appended && out.append(scratch.phase_duration(i), scratch.phase_jerk(i));
   }
-  if (!reaches(out, target_position, Lim(lim)) || !(std::abs(out.duration() - duration_s) <= 1e-9 * duration_s)) {
+  if (!appended || !reaches(out, target_position, Lim(lim)) ||
+      !(std::abs(out.duration() - duration_s) <= 1e-9 * duration_s)) {
     return {TrajectoryStatus::ErrorNoSolution, InvalidField::None};
   }
   return {};
+}
+
+//! The filling profile of duration_s (minimum < duration_s < the stretched family's first), or
+//! ErrorDuration when neither family takes it.
+CalculationResult fill(const Fill& f, double target_position, const JointLimits& lim, double duration_s,
+                       Profile& out) noexcept {
+  if (f.first.floor > 0.0 && duration_s <= f.first.end_s) return fill_to(f.first, target_position, lim, duration_s, out);
+  if (f.takes(duration_s)) return fill_to(f.second, target_position, lim, duration_s, out);
+  return {TrajectoryStatus::ErrorDuration, InvalidField::None};
 }
 
 }  // namespace
@@ -951,14 +1010,7 @@ CalculationResult calculate_for_duration(const JointState& start, double target_
     if (duration_s < st.min_s * (1.0 - kSameDuration)) return {TrajectoryStatus::ErrorDuration, InvalidField::None};
     return {};
   }
-  if (duration_s < st.stretch_from_s) {
-    const double floor = fill_lambda_floor(st, limits);
-    Profile scratch;
-    if (!(floor > 0.0) || duration_s > fill_duration(st, target_position, limits, floor, scratch)) {
-      return {TrajectoryStatus::ErrorDuration, InvalidField::None};
-    }
-    return fill_to(st, target_position, limits, duration_s, floor, out);
-  }
+  if (duration_s < st.stretch_from_s) return fill(make_fill(st, target_position, limits), target_position, limits, duration_s, out);
   return stretch_to(st, target_position, limits, duration_s, out);
 }
 
@@ -982,30 +1034,28 @@ SynchronizedResult calculate_synchronized(const JointState* start, const double*
   // stretched-profile start beyond it that every joint can take. A joint blocks the durations
   // between its filled ones (up to the lowered jerk's floor, computed only when asked) and its
   // stretched family's first.
-  std::array<double, kMaxSynchronizedJoints> floor{};
-  std::array<double, kMaxSynchronizedJoints> fill_end_s{};
+  std::array<Fill, kMaxSynchronizedJoints> fills{};
   std::array<bool, kMaxSynchronizedJoints> fill_known{};
-  Profile scratch;
-  const auto fill_end = [&](std::size_t i) {
+  const auto fill_of = [&](std::size_t i) -> const Fill& {
     if (!fill_known[i]) {
       fill_known[i] = true;
-      floor[i] = fill_lambda_floor(st[i], limits[i]);
-      fill_end_s[i] = floor[i] > 0.0 ? fill_duration(st[i], target_position[i], limits[i], floor[i], scratch) : 0.0;
-      if (!std::isfinite(fill_end_s[i])) fill_end_s[i] = 0.0;
+      fills[i] = make_fill(st[i], target_position[i], limits[i]);
     }
-    return fill_end_s[i];
+    return fills[i];
   };
   const auto takes = [&](double t) {
     for (std::size_t i = 0; i < joint_count; ++i) {
-      if (t > st[i].min_s * (1.0 + kSameDuration) && t < st[i].stretch_from_s && t > fill_end(i)) return false;
+      if (t > st[i].min_s * (1.0 + kSameDuration) && t < st[i].stretch_from_s && !fill_of(i).takes(t)) return false;
     }
     return true;
   };
   if (!takes(duration_s)) {
     double best = std::numeric_limits<double>::infinity();
+    // The candidates: where a joint's stretched family or its second filling family begins.
     for (std::size_t i = 0; i < joint_count; ++i) {
-      if (st[i].stretch_from_s > duration_s && st[i].stretch_from_s < best && takes(st[i].stretch_from_s)) {
-        best = st[i].stretch_from_s;
+      const FillFamily& second = fill_of(i).second;
+      for (const double t : {st[i].stretch_from_s, second.floor > 0.0 ? second.from.min_s : 0.0}) {
+        if (t > duration_s && t < best && takes(t)) best = t;
       }
     }
     if (!std::isfinite(best)) return {TrajectoryStatus::ErrorNoSolution, InvalidField::None, joint_count, 0.0};
@@ -1014,8 +1064,8 @@ SynchronizedResult calculate_synchronized(const JointState* start, const double*
   for (std::size_t i = 0; i < joint_count; ++i) {
     if (duration_s <= st[i].min_s * (1.0 + kSameDuration)) continue;
     const CalculationResult r =
-        duration_s < st[i].stretch_from_s && duration_s <= fill_end(i)
-            ? fill_to(st[i], target_position[i], limits[i], duration_s, floor[i], out[i])
+        duration_s < st[i].stretch_from_s
+            ? fill(fill_of(i), target_position[i], limits[i], duration_s, out[i])
             : stretch_to(st[i], target_position[i], limits[i], duration_s, out[i]);
     if (!r.ok()) return {r.status, r.field, i, duration_s};
   }

@@ -64,7 +64,7 @@ bool valid(const Profile& p, const Move& m) {
 
 }  // namespace
 
-TEST_CASE("a given duration is met exactly, or refused as too short or blocked", "[duration]") {
+TEST_CASE("a given duration is met exactly, or refused as too short", "[duration]") {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   Profile optimal, profile;
@@ -97,7 +97,9 @@ TEST_CASE("a given duration is met exactly, or refused as too short or blocked",
   }
   CHECK(failures == 0);
   CHECK(stretched > 15000);
-  CHECK(blocked > 0);
+  // Every duration from the minimum on is met: the stretched family's gaps above the minimum are
+  // filled with a lower jerk.
+  CHECK(blocked == 0);
 }
 
 TEST_CASE("synchronized joints end together within their limits", "[synchronized]") {
@@ -197,6 +199,49 @@ TEST_CASE("durations the stretched family cannot take are filled with a lower je
   CHECK(out[1].duration() == Approx(r.duration_s).epsilon(1e-12));
   CHECK(valid(out[0], move));
   CHECK(std::abs(out[1].end_state().position - lo_d) <= 1e-8);
+}
+
+// Four joints with moving starts inside the limits (the trajectory bench's problems): the stretched
+// family alone left 1 set in 10,000 up to 16% longer than the slowest joint's minimum.
+TEST_CASE("synchronized 4-DoF sets take the slowest joint's minimum", "[synchronized]") {
+  std::mt19937_64 rng(14);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto log_uniform = [&](double lo, double hi) { return lo * std::pow(hi / lo, unit(rng)); };
+  std::array<Move, 4> moves{};
+  std::array<JointState, 4> starts{};
+  std::array<double, 4> targets{};
+  std::array<JointLimits, 4> limits{};
+  std::array<Profile, 4> out{};
+  Profile optimal;
+  int longer = 0, failures = 0;
+  for (int n = 0; n < 100000; ++n) {
+    double slowest = 0.0;
+    for (std::size_t k = 0; k < 4; ++k) {
+      Move& m = moves[k];
+      m.limits = {log_uniform(0.1, 2.0), log_uniform(0.2, 5.0), log_uniform(0.5, 20.0)};
+      m.start = {(2.0 * unit(rng) - 1.0) * 3.0, (2.0 * unit(rng) - 1.0) * m.limits.max_velocity,
+                 (2.0 * unit(rng) - 1.0) * m.limits.max_acceleration};
+      m.target = (2.0 * unit(rng) - 1.0) * 3.0;
+      starts[k] = m.start;
+      targets[k] = m.target;
+      limits[k] = m.limits;
+      REQUIRE(calculate_time_optimal(m.start, m.target, m.limits, optimal).ok());
+      slowest = std::max(slowest, optimal.duration());
+    }
+    const SynchronizedResult r = calculate_synchronized(starts.data(), targets.data(), limits.data(), 4, out.data());
+    bool ok = r.ok();
+    for (std::size_t k = 0; k < 4 && ok; ++k) {
+      ok = std::abs(out[k].duration() - r.duration_s) <= 1e-9 * r.duration_s && valid(out[k], moves[k]);
+    }
+    if (ok && r.duration_s > slowest * (1.0 + 1e-12)) ++longer;
+    if ((!ok || r.duration_s > slowest * (1.0 + 1e-12)) && ++failures <= 5) {
+      CAPTURE(n, static_cast<int>(r.status), r.joint, r.duration_s, slowest);
+      CHECK(ok);
+      CHECK(r.duration_s <= slowest * (1.0 + 1e-12));
+    }
+  }
+  CHECK(failures == 0);
+  CHECK(longer == 0);
 }
 
 TEST_CASE("synchronized input errors name the joint and the field", "[synchronized]") {
