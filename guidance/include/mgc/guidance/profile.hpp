@@ -39,7 +39,8 @@ struct JointSample {
 //! (a cubic in the time since the phase start) and O(phases). RT-safe: no alloc, no throw.
 class Profile {
  public:
-  //! Braking pre-phase (up to 4) + seven-phase profile + one spare.
+  //! Braking segment (up to 4) + seven-phase profile + one spare (a filled profile's ramp to zero
+  //! acceleration, docs/trajectory.md).
   static constexpr std::size_t kMaxPhases = 12;
 
   //! Clears the phases; the profile then holds `start` (with zero jerk) for all time.
@@ -87,7 +88,7 @@ class Profile {
   [[nodiscard]] double phase_start_time(std::size_t i) const noexcept { return start_time_s_[i]; }  //!< [s]
   [[nodiscard]] const JointState& end_state() const noexcept { return start_state_[count_]; }
 
-  //! Number of leading phases that brake an initial state beyond the limits (0 when none) [-].
+  //! Number of leading phases that bring a start back within the limits (0 when none) [-].
   std::size_t brake_phase_count = 0;
 
  private:

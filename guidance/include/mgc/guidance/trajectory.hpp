@@ -48,22 +48,24 @@ struct CalculationResult {
 };
 
 //! Time-optimal jerk-limited motion of one joint from `start` to rest at `target_position`
-//! (target velocity and acceleration zero). A start state beyond the limits (|a| > max
-//! acceleration, or a velocity that is or will be beyond max velocity) is first brought inside
-//! them by a braking pre-phase; the rest is the fastest profile of the seven-phase family
-//! (docs/trajectory.md). RT-safe: no alloc, no lock, no throw.
+//! (target velocity and acceleration zero). A start whose acceleration is beyond max acceleration,
+//! or whose velocity is or will be beyond max velocity whatever the jerk does, is first brought
+//! within them at the earliest instant from which it can stay within (a braking segment, closed
+//! form); the rest is the fastest profile of the seven-phase family (docs/trajectory.md). RT-safe:
+//! no alloc, no lock, no throw, no iteration beyond fixed bounds.
 [[nodiscard]] CalculationResult calculate_time_optimal(const JointState& start, double target_position,
                                                        const JointLimits& limits, Profile& out) noexcept;
 
-//! Time-optimal stop of one joint: the braking pre-phase if needed, then the fastest velocity change
+//! Time-optimal stop of one joint: the braking segment if needed, then the fastest velocity change
 //! to rest (wherever it ends). RT-safe.
 [[nodiscard]] CalculationResult calculate_stop(const JointState& start, const JointLimits& limits, Profile& out) noexcept;
 
-//! The same move taking exactly duration_s [s] from `start` (braking pre-phase included): the
-//! time-optimal change to a cruise velocity, the cruise, the time-optimal change to rest
-//! (docs/trajectory.md). ErrorDuration when duration_s is shorter than the time-optimal duration or
-//! inside the joint's blocked interval (durations just above the minimum that no profile of this
-//! form takes); `out` then holds the time-optimal profile. RT-safe.
+//! The same move taking exactly duration_s [s] from `start` (braking segment included): the
+//! time-optimal change to a cruise velocity, the cruise, the time-optimal change to rest; or, for
+//! durations just above the minimum that this form cannot take, the time-optimal profile under a
+//! lowered jerk limit (docs/trajectory.md). ErrorDuration when duration_s is shorter than the
+//! time-optimal duration or no such profile takes it; `out` then holds the time-optimal profile.
+//! RT-safe; at most 100 time-optimal calculations (the lowered jerk's search).
 [[nodiscard]] CalculationResult calculate_for_duration(const JointState& start, double target_position,
                                                        const JointLimits& limits, double duration_s,
                                                        Profile& out) noexcept;
@@ -83,8 +85,8 @@ struct SynchronizedResult {
 
 //! Synchronized move of joint_count (1..kMaxSynchronizedJoints) joints, each to rest at its target:
 //! every profile out[i] lasts the least duration that all joints can take, which is the slowest
-//! joint's time-optimal duration unless that falls in another joint's blocked interval (Ruckig's
-//! step 2). Arrays hold joint_count entries. RT-safe: no alloc, no lock, no throw.
+//! joint's time-optimal duration unless another joint cannot take it (docs/trajectory.md). Arrays
+//! hold joint_count entries. RT-safe: no alloc, no lock, no throw, bounded iterations.
 [[nodiscard]] SynchronizedResult calculate_synchronized(const JointState* start, const double* target_position,
                                                         const JointLimits* limits, std::size_t joint_count,
                                                         Profile* out) noexcept;
