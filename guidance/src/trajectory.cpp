@@ -1073,4 +1073,72 @@ SynchronizedResult calculate_synchronized(const JointState* start, const double*
   return result;
 }
 
+namespace {
+
+//! The phase-synchronized move when the start allows it: every joint p_i(t) = p_i0 + d_i s(t)
+//! for one path parameter s from 0 to 1, whose start velocity and acceleration are those of the
+//! joint with the longest way divided by its distance; the limits of s are the least of every
+//! joint's limits divided by its |d_i|. False (nothing written to the result) when some joint's
+//! start is off that line, the path must brake, or a scaled profile misses its end state.
+bool phase_synchronized(const JointState* start, const double* target_position, const JointLimits* limits,
+                        std::size_t joint_count, Profile* out, SynchronizedResult& result) noexcept {
+  std::size_t lead = 0;
+  for (std::size_t i = 1; i < joint_count; ++i) {
+    if (std::abs(target_position[i] - start[i].position) > std::abs(target_position[lead] - start[lead].position)) {
+      lead = i;
+    }
+  }
+  const double lead_distance = target_position[lead] - start[lead].position;
+  if (lead_distance == 0.0) return false;
+  const JointState path_start{0.0, start[lead].velocity / lead_distance, start[lead].acceleration / lead_distance};
+  JointLimits path_limits{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                          std::numeric_limits<double>::infinity()};
+  for (std::size_t i = 0; i < joint_count; ++i) {
+    const double d = target_position[i] - start[i].position;
+    // On the line: the joint's velocity and acceleration are d times the path's.
+    if (!(std::abs(start[i].velocity - d * path_start.velocity) <= 1e-12 * limits[i].max_velocity) ||
+        !(std::abs(start[i].acceleration - d * path_start.acceleration) <= 1e-12 * limits[i].max_acceleration)) {
+      return false;
+    }
+    if (d == 0.0) continue;
+    path_limits.max_velocity = std::min(path_limits.max_velocity, limits[i].max_velocity / std::abs(d));
+    path_limits.max_acceleration = std::min(path_limits.max_acceleration, limits[i].max_acceleration / std::abs(d));
+    path_limits.max_jerk = std::min(path_limits.max_jerk, limits[i].max_jerk / std::abs(d));
+  }
+  // A start that must brake is left to Time: each joint then follows its own braking rule, where
+  // the path's would hold only the joint whose limit binds the path to it.
+  Profile path;
+  if (!calculate_time_optimal(path_start, 1.0, path_limits, path).ok() || path.brake_phase_count != 0) return false;
+  for (std::size_t i = 0; i < joint_count; ++i) {
+    const double d = target_position[i] - start[i].position;
+    out[i].reset(start[i]);
+    for (std::size_t k = 0; k < path.phase_count(); ++k) {
+      // d times the path's limit is the joint's limit up to a rounding, which must not exceed it.
+      const double jerk = std::clamp(d * path.phase_jerk(k), -limits[i].max_jerk, limits[i].max_jerk);
+      if (!out[i].append(path.phase_duration(k), jerk)) return false;
+    }
+    out[i].brake_phase_count = path.brake_phase_count;
+    if (!reaches(out[i], target_position[i], Lim(limits[i]))) return false;
+  }
+  result.duration_s = path.duration();
+  result.phase_synchronized = true;
+  return true;
+}
+
+}  // namespace
+
+SynchronizedResult calculate_synchronized(const JointState* start, const double* target_position,
+                                          const JointLimits* limits, std::size_t joint_count, Profile* out,
+                                          Synchronization mode) noexcept {
+  if (mode == Synchronization::Phase && joint_count >= 1 && joint_count <= kMaxSynchronizedJoints) {
+    // Inputs are validated as for Time first, so that errors name the joint and field alike.
+    SynchronizedResult result = calculate_synchronized(start, target_position, limits, joint_count, out);
+    if (!result.ok()) return result;
+    SynchronizedResult phase;
+    if (phase_synchronized(start, target_position, limits, joint_count, out, phase)) return phase;
+    return calculate_synchronized(start, target_position, limits, joint_count, out);
+  }
+  return calculate_synchronized(start, target_position, limits, joint_count, out);
+}
+
 }  // namespace mgc::guidance

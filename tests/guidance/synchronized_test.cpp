@@ -342,3 +342,75 @@ TEST_CASE("long stretches with high jerk against acceleration end at the target"
   }
   CHECK(sync_failures == 0);
 }
+
+TEST_CASE("phase synchronization keeps the joints on one line in joint space", "[synchronized]") {
+  std::mt19937_64 rng(15);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::array<Move, kMaxSynchronizedJoints> moves{};
+  std::array<JointState, kMaxSynchronizedJoints> starts{};
+  std::array<double, kMaxSynchronizedJoints> targets{};
+  std::array<JointLimits, kMaxSynchronizedJoints> limits{};
+  std::array<Profile, kMaxSynchronizedJoints> out{};
+  int phase_rest = 0, phase_moving = 0, failures = 0;
+  for (int n = 0; n < 3000; ++n) {
+    const std::size_t count = 1 + static_cast<std::size_t>(n) % kMaxSynchronizedJoints;
+    // One in three sets starts on the line (velocity and acceleration in proportion to the
+    // distance to go), one in three at rest, one in three off the line.
+    const int kind = n % 3;
+    const double path_velocity = 0.1 * (2.0 * unit(rng) - 1.0), path_acceleration = 0.1 * (2.0 * unit(rng) - 1.0);
+    for (std::size_t i = 0; i < count; ++i) {
+      moves[i] = random_move(rng);
+      const double d = moves[i].target - moves[i].start.position;
+      if (kind == 0) moves[i].start = {moves[i].start.position, 0.0, 0.0};
+      if (kind == 1) {
+        moves[i].limits.max_velocity = std::max(moves[i].limits.max_velocity, std::abs(d * path_velocity));
+        moves[i].limits.max_acceleration = std::max(moves[i].limits.max_acceleration, std::abs(d * path_acceleration));
+        moves[i].start = {moves[i].start.position, d * path_velocity, d * path_acceleration};
+      }
+      starts[i] = moves[i].start;
+      targets[i] = moves[i].target;
+      limits[i] = moves[i].limits;
+    }
+    const SynchronizedResult time = calculate_synchronized(starts.data(), targets.data(), limits.data(), count, out.data());
+    REQUIRE(time.ok());
+    const SynchronizedResult r = calculate_synchronized(starts.data(), targets.data(), limits.data(), count, out.data(),
+                                                        Synchronization::Phase);
+    bool ok = r.ok();
+    if (ok && r.phase_synchronized) {
+      if (kind == 0) ++phase_rest;
+      if (kind == 1) ++phase_moving;
+      // Off the line only a single joint, which is on its own line.
+      ok = kind != 2 || count == 1;
+      // Never shorter than each joint's own time-synchronized profile allows.
+      ok = ok && r.duration_s >= time.duration_s * (1.0 - 1e-12);
+      for (std::size_t i = 0; i < count && ok; ++i) {
+        ok = std::abs(out[i].duration() - r.duration_s) <= 1e-9 * r.duration_s && valid(out[i], moves[i]);
+      }
+      // On the line: every joint has covered the same fraction of its way at every instant.
+      std::size_t lead = 0;
+      for (std::size_t i = 1; i < count; ++i) {
+        if (std::abs(targets[i] - starts[i].position) > std::abs(targets[lead] - starts[lead].position)) lead = i;
+      }
+      const double lead_d = targets[lead] - starts[lead].position;
+      for (int k = 0; k <= 50 && ok; ++k) {
+        const double t = r.duration_s * k / 50.0;
+        const double s = (out[lead].at_time(t).position - starts[lead].position) / lead_d;
+        for (std::size_t i = 0; i < count && ok; ++i) {
+          const double d = targets[i] - starts[i].position;
+          ok = std::abs(out[i].at_time(t).position - (starts[i].position + d * s)) <= 1e-9 * (1.0 + std::abs(d));
+        }
+      }
+    } else if (ok) {
+      // Off the line, or a start on it that must brake: the time-synchronized move.
+      ok = kind != 0 && r.duration_s == time.duration_s;
+    }
+    if (!ok && ++failures <= 5) {
+      CAPTURE(n, count, kind, static_cast<int>(r.status), r.phase_synchronized, r.duration_s, time.duration_s);
+      CHECK(ok);
+    }
+  }
+  CHECK(failures == 0);
+  // Every set at rest, and those moving on the line that need not brake.
+  CHECK(phase_rest == 1000);
+  CHECK(phase_moving > 400);  // 499: the others must brake
+}

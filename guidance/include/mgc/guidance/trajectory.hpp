@@ -80,7 +80,17 @@ struct SynchronizedResult {
   InvalidField field = InvalidField::None;
   std::size_t joint = 0;    //!< the joint that failed; joint_count for the joint count itself
   double duration_s = 0.0;  //!< [s] the common duration
+  //! Synchronization::Phase was asked for and taken: every joint on one straight line in joint space.
+  bool phase_synchronized = false;
   [[nodiscard]] bool ok() const noexcept { return status == TrajectoryStatus::Working; }
+};
+
+//! How synchronized joints move together.
+enum class Synchronization : std::uint8_t {
+  Time,   //!< they end together, each on its own profile
+  Phase,  //!< on one straight line in joint space (every joint a scaled copy of one profile), where
+          //!< the start allows it (every joint's velocity and acceleration in proportion to its
+          //!< distance to go, no braking needed); otherwise as Time
 };
 
 //! Synchronized move of joint_count (1..kMaxSynchronizedJoints) joints, each to rest at its target:
@@ -90,5 +100,15 @@ struct SynchronizedResult {
 [[nodiscard]] SynchronizedResult calculate_synchronized(const JointState* start, const double* target_position,
                                                         const JointLimits* limits, std::size_t joint_count,
                                                         Profile* out) noexcept;
+
+//! As above, with the mode: Synchronization::Phase puts every joint on one straight line in joint
+//! space (each joint's profile a copy of one profile scaled by its distance to go, which is
+//! time-optimal under the joints' limits divided by their distances; no shorter profile keeps them
+//! on the line) when every joint's start velocity and acceleration are in proportion to its
+//! distance to go (to 1e-12 of its limits) and the line's start needs no braking, and falls back
+//! to Synchronization::Time otherwise (SynchronizedResult::phase_synchronized says which). RT-safe.
+[[nodiscard]] SynchronizedResult calculate_synchronized(const JointState* start, const double* target_position,
+                                                        const JointLimits* limits, std::size_t joint_count,
+                                                        Profile* out, Synchronization mode) noexcept;
 
 }  // namespace mgc::guidance
