@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Time-optimal jerk-limited 1-DoF profiles to a rest target (docs/trajectory.md), in closed form per
-// profile type as in Ruckig (Berscheid & Kröger, RSS 2021). After the braking pre-phase the
+// profile type as in Ruckig (Berscheid & Kröger, RSS 2021). After the braking segment the
 // time-optimal profile to rest has the jerk pattern UDDU (+J, plateau, -J, cruise, -J, plateau, +J,
 // J = ±j_max); each subset of reached limits leaves one unknown and a polynomial of degree <= 4,
 // whose real roots are all found, and the fastest valid profile wins.
@@ -248,7 +248,7 @@ double polish_none(double x, double lo, double hi, double v0, double a0, double 
   return x;
 }
 
-//! A candidate profile after the braking pre-phase, in the frame mirrored so that its first jerk is
+//! A candidate profile after the braking segment, in the frame mirrored so that its first jerk is
 //! +j_max (jerk_sign -1 undoes the mirror): a head (jerk J for t0, a plateau t1, jerk -J for t2), a
 //! cruise of cruise_s, and the time-optimal stop from the state reached. For a no-cruise profile
 //! the head is its first ramp and plateau (for UDUD also the ramp to zero acceleration); for a
@@ -442,7 +442,7 @@ void uddu_candidates(double v0, double a0, double d, const Lim& L, double jerk_s
 
 bool finite(double x) noexcept { return std::isfinite(x); }
 
-//! Appends the braking pre-phase (docs/trajectory.md, "Starts that must brake"). An acceleration
+//! Appends the braking segment (docs/trajectory.md, "Starts that must brake"). An acceleration
 //! beyond a_max is ramped to ±a_max at full jerk, the earliest it can be inside. Then, if the
 //! velocity is beyond ±v_max or will be whatever the jerk does (its value at zero acceleration
 //! v + a|a|/(2 j_max) is beyond), the jerk brings it back at the earliest instant from which it
@@ -592,7 +592,7 @@ bool reaches(const Profile& out, double target_position, const Lim& L) noexcept 
          std::abs(end.acceleration) <= std::max(1e-9, 64.0 * eps * L.a_max);
 }
 
-//! Appends the candidate's phases to `out` (which ends after the braking pre-phase) and checks the
+//! Appends the candidate's phases to `out` (which ends after the braking segment) and checks the
 //! end state. The stop (or change to rest) is built from the state actually reached, so it ends at
 //! zero velocity and acceleration exactly; a cruise is re-timed once from the position error, so
 //! that a velocity rounding error is not multiplied by a long cruise.
@@ -671,13 +671,13 @@ namespace {
 //! it (when they differ: the time-optimal profile is an early turn or on the other side) are the
 //! blocked interval.
 struct Stretch {
-  JointState start{};            //!< after the braking pre-phase, its acceleration clamped
-  double brake_s = 0.0;          //!< [s] the braking pre-phase
-  double min_s = 0.0;            //!< [s] time-optimal duration, pre-phase included
+  JointState start{};            //!< after the braking segment, its acceleration clamped
+  double brake_s = 0.0;          //!< [s] the braking segment
+  double min_s = 0.0;            //!< [s] time-optimal duration, braking segment included
   double distance = 0.0;         //!< [m] from `start` to the target
   double side = 1.0;             //!< sign of the cruise velocity of stretched profiles
   double peak_end = 0.0;         //!< [m/s] largest |vp| of the stretchable branch
-  double stretch_from_s = 0.0;   //!< [s] shortest stretched duration, pre-phase included
+  double stretch_from_s = 0.0;   //!< [s] shortest stretched duration, braking segment included
   double stop_distance = 0.0;    //!< [m] of the time-optimal stop from `start`
 };
 
@@ -793,7 +793,7 @@ double stretch_error(const Stretch& st, const Lim& L, double u, double after_s) 
 }
 
 //! Builds the stretched profile of duration_s into `out` (which holds the time-optimal one, whose
-//! pre-phase is kept): the cruise velocity by Illinois regula falsi with bisection steps on
+//! braking segment is kept): the cruise velocity by Illinois regula falsi with bisection steps on
 //! [0, peak_end], the cruise taking the time the two changes leave.
 CalculationResult stretch_to(const Stretch& st, double target_position, const JointLimits& lim, double duration_s,
                              Profile& out) noexcept {
@@ -865,7 +865,7 @@ constexpr double kSameDuration = 1e-12;
 //! that family) are filled by the time-optimal profile under the jerk limit lowered to
 //! lambda j_max: a profile within the true limits whose duration rises continuously from the
 //! minimum as lambda falls (a lower limit never allows a faster profile). lambda stays above the
-//! value at which the start, after the braking pre-phase, would have to brake under the lowered
+//! value at which the start, after the braking segment, would have to brake under the lowered
 //! limit (its velocity at zero acceleration v + a|a|/(2 lambda j_max) beyond v_max), so the braking
 //! rule never applies to it; 0 when no lambda < 1 qualifies.
 double fill_lambda_floor(const Stretch& st, const JointLimits& lim) noexcept {
@@ -877,8 +877,8 @@ double fill_lambda_floor(const Stretch& st, const JointLimits& lim) noexcept {
   return floor < 1.0 ? std::max(floor, 1e-9) : 0.0;
 }
 
-//! The time-optimal move from the state after the pre-phase under jerk lambda j_max, into
-//! `scratch`; its duration with the pre-phase, or infinity if it failed.
+//! The time-optimal move from the state after the braking segment under jerk lambda j_max, into
+//! `scratch`; its duration with the braking segment, or infinity if it failed.
 double fill_duration(const Stretch& st, double target_position, const JointLimits& lim, double lambda,
                      Profile& scratch) noexcept {
   const JointLimits lowered{lim.max_velocity, lim.max_acceleration, lambda * lim.max_jerk};
@@ -892,7 +892,7 @@ double fill_duration(const Stretch& st, double target_position, const JointLimit
 //! profile from the state after it under the jerk limit lambda j_max, lambda in [floor, 1]; its
 //! durations run continuously from `from.min_s` (lambda 1) to end_s (the floor).
 struct FillFamily {
-  Stretch from{};            //!< the state after the pre-phase and the prefix; min_s at lambda 1
+  Stretch from{};            //!< the state after the braking segment and the prefix; min_s at lambda 1
   double prefix_s = 0.0;     //!< [s]
   double prefix_jerk = 0.0;  //!< [/s³]
   double floor = 0.0;        //!< 0: the family is empty
@@ -937,7 +937,7 @@ Fill make_fill(const Stretch& st, double target_position, const JointLimits& lim
   return f;
 }
 
-//! Builds into `out` (whose pre-phase is kept) the profile of duration_s of the family, which must
+//! Builds into `out` (whose braking segment is kept) the profile of duration_s of the family, which must
 //! lie within its durations: lambda by Illinois regula falsi on the duration (at most 100 steps),
 //! the profile accepted when its duration is duration_s to 1e-10.
 CalculationResult fill_to(const FillFamily& fam, double target_position, const JointLimits& lim, double duration_s,
@@ -989,7 +989,9 @@ CalculationResult fill_to(const FillFamily& fam, double target_position, const J
 //! ErrorDuration when neither family takes it.
 CalculationResult fill(const Fill& f, double target_position, const JointLimits& lim, double duration_s,
                        Profile& out) noexcept {
-  if (f.first.floor > 0.0 && duration_s <= f.first.end_s) return fill_to(f.first, target_position, lim, duration_s, out);
+  if (f.first.floor > 0.0 && duration_s <= f.first.end_s) {
+    return fill_to(f.first, target_position, lim, duration_s, out);
+  }
   if (f.takes(duration_s)) return fill_to(f.second, target_position, lim, duration_s, out);
   return {TrajectoryStatus::ErrorDuration, InvalidField::None};
 }
@@ -1010,7 +1012,9 @@ CalculationResult calculate_for_duration(const JointState& start, double target_
     if (duration_s < st.min_s * (1.0 - kSameDuration)) return {TrajectoryStatus::ErrorDuration, InvalidField::None};
     return {};
   }
-  if (duration_s < st.stretch_from_s) return fill(make_fill(st, target_position, limits), target_position, limits, duration_s, out);
+  if (duration_s < st.stretch_from_s) {
+    return fill(make_fill(st, target_position, limits), target_position, limits, duration_s, out);
+  }
   return stretch_to(st, target_position, limits, duration_s, out);
 }
 
