@@ -596,13 +596,50 @@ bool reaches(const Profile& out, double target_position, const Lim& L) noexcept 
 //! end state. The stop (or change to rest) is built from the state actually reached, so it ends at
 //! zero velocity and acceleration exactly; a cruise is re-timed once from the position error, so
 //! that a velocity rounding error is not multiplied by a long cruise.
+//! A no-cruise UDDU candidate's head (a ramp of t0, a plateau of t1) from the root of its type's
+//! polynomial: next to where a plateau vanishes that polynomial is ill-conditioned, and a short
+//! move's end position hardly notices, so the root can be off by parts in a million of the
+//! duration while the end is within 1e-8. When the end misses the target by more than roundings,
+//! secant steps on the head's unknown (the plateau if there is one, else the ramp) on the end
+//! position integrated as the profile will be (at most 4; kept only if the miss shrinks).
+void refine_head(const JointState& from, double jerk, double target_position, const Lim& L, double& t0,
+                 double& t1) noexcept {
+  const auto miss = [&](double r0, double r1) {
+    JointState head = advance(advance(from, jerk, r0), 0.0, r1);
+    head.acceleration = std::clamp(head.acceleration, -L.a_max, L.a_max);
+    return apply(head, velocity_change(head.velocity, head.acceleration, 0.0, L)).position - target_position;
+  };
+  const double tolerance = 1e-13 * (1.0 + std::abs(target_position - from.position));
+  double e = miss(t0, t1);
+  if (!(std::abs(e) > tolerance)) return;
+  const bool plateau = t1 > 0.0;
+  double x = plateau ? t1 : t0;
+  double x_prev = x * (1.0 + 1e-7) + 1e-12, e_prev = plateau ? miss(t0, x_prev) : miss(x_prev, t1);
+  double best_x = x, best_e = std::abs(e);
+  for (int i = 0; i < 4 && e != e_prev; ++i) {
+    const double next = std::max(x - e * (x - x_prev) / (e - e_prev), 0.0);
+    x_prev = x;
+    e_prev = e;
+    x = next;
+    e = plateau ? miss(t0, x) : miss(x, t1);
+    if (std::abs(e) < best_e) {
+      best_e = std::abs(e);
+      best_x = x;
+    }
+    if (!(std::abs(e) > tolerance)) break;
+  }
+  (plateau ? t1 : t0) = best_x;
+}
+
 //! `tail`, when given, is the change to rest from the cruise velocity (mirrored as the candidate),
 //! used when the head ends at zero acceleration instead of computing it again.
 bool build(const Candidate& c, double target_position, const Lim& L, Profile& out,
            const VelocityChange* tail = nullptr) noexcept {
   const double a_max = L.a_max, j_max = L.j_max;
   const double jerk = c.jerk_sign * c.head_sign * j_max;
-  if (!(out.append(c.t0_s, jerk) && out.append(c.t1_s, 0.0) && out.append(c.t2_s, -jerk))) return false;
+  double t0 = c.t0_s, t1 = c.t1_s;
+  if (c.cruise_s == 0.0 && c.t2_s == 0.0) refine_head(out.end_state(), jerk, target_position, L, t0, t1);
+  if (!(out.append(t0, jerk) && out.append(t1, 0.0) && out.append(c.t2_s, -jerk))) return false;
   JointState head = out.end_state();
   head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
   VelocityChange stop;

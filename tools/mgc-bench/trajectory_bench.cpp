@@ -155,8 +155,8 @@ int run_trajectory_suite(const TrajectoryBenchOptions& options) {
 
   // Durations against the baseline: unchanged where the start need not brake; where it must, the
   // earliest return within the limit (docs/trajectory.md) against the former fixed braking rule.
-  std::size_t braking = 0, braking_shorter = 0;
-  double unchanged_worst = 0.0, braking_min = 1e300, braking_max = 0.0;
+  std::size_t braking = 0, braking_shorter = 0, unchanged_shorter = 0;
+  double unchanged_worst = 0.0, unchanged_best = 0.0, braking_min = 1e300, braking_max = 0.0;
   std::vector<double> braking_ratios;
   for (std::size_t i = 0; i < n; ++i) {
     const Problem& p = problems[i];
@@ -166,8 +166,10 @@ int run_trajectory_suite(const TrajectoryBenchOptions& options) {
       continue;
     }
     if (ours.brake_phase_count == 0 && base.brake_phase_count == 0) {
-      unchanged_worst = std::max(unchanged_worst, std::abs(ours.duration() - base.duration()) /
-                                                      std::max(base.duration(), 1e-300));
+      const double change = (ours.duration() - base.duration()) / std::max(base.duration(), 1e-300);
+      unchanged_worst = std::max(unchanged_worst, change);
+      unchanged_best = std::min(unchanged_best, change);
+      if (change < -1e-9) ++unchanged_shorter;
     } else if (base.duration() > 0.0) {
       ++braking;
       const double ratio = ours.duration() / base.duration();
@@ -210,13 +212,15 @@ int run_trajectory_suite(const TrajectoryBenchOptions& options) {
   }
   {
     const double median_ratio = braking_ratios.empty() ? 1.0 : percentile(braking_ratios, 0.5);
-    char line[768];
+    char line[1024];
     std::snprintf(line, sizeof line,
-                  "\nDurations against the baseline, 1-DoF: starts that need not brake %zu, largest relative "
-                  "difference %.2e; starts that must brake %zu (%.1f%%), current/baseline median %.4f, from %.4f to "
-                  "%.4f, shorter in %zu. Synchronized 4-DoF: common duration shorter in %zu sets, longer in %zu, "
-                  "least current/baseline %.4f.\n",
-                  n - braking, unchanged_worst, braking, 100.0 * static_cast<double>(braking) / static_cast<double>(n),
+                  "\nDurations against the baseline, 1-DoF: starts that need not brake %zu, relative change from "
+                  "%.2e to %.2e (shorter by more than 1e-9 in %zu: the plateau types' roots refined); starts that "
+                  "must brake %zu (%.1f%%), current/baseline median %.4f, from %.4f to %.4f, shorter in %zu. "
+                  "Synchronized 4-DoF: common duration shorter in %zu sets, longer in %zu, least current/baseline "
+                  "%.4f.\n",
+                  n - braking, unchanged_best, unchanged_worst, unchanged_shorter, braking,
+                  100.0 * static_cast<double>(braking) / static_cast<double>(n),
                   median_ratio, braking_ratios.empty() ? 1.0 : braking_min, braking_ratios.empty() ? 1.0 : braking_max,
                   braking_shorter, sync_shorter, sync_longer, sync_min > 1e299 ? 1.0 : sync_min);
     table += line;
