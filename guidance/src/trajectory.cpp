@@ -602,16 +602,14 @@ bool reaches(const Profile& out, double target_position, const Lim& L) noexcept 
 //! duration while the end is within 1e-8. When the end misses the target by more than roundings,
 //! secant steps on the head's unknown (the plateau if there is one, else the ramp) on the end
 //! position integrated as the profile will be (at most 4; kept only if the miss shrinks).
-void refine_head(const JointState& from, double jerk, double target_position, const Lim& L, double& t0,
-                 double& t1) noexcept {
+//! `e` is the built profile's miss; true when a head that misses less was found.
+bool refine_head(const JointState& from, double jerk, double target_position, const Lim& L, double tolerance,
+                 double e, double& t0, double& t1) noexcept {
   const auto miss = [&](double r0, double r1) {
     JointState head = advance(advance(from, jerk, r0), 0.0, r1);
     head.acceleration = std::clamp(head.acceleration, -L.a_max, L.a_max);
     return apply(head, velocity_change(head.velocity, head.acceleration, 0.0, L)).position - target_position;
   };
-  const double tolerance = 1e-13 * (1.0 + std::abs(target_position - from.position));
-  double e = miss(t0, t1);
-  if (!(std::abs(e) > tolerance)) return;
   const bool plateau = t1 > 0.0;
   double x = plateau ? t1 : t0;
   double x_prev = x * (1.0 + 1e-7) + 1e-12, e_prev = plateau ? miss(t0, x_prev) : miss(x_prev, t1);
@@ -628,7 +626,9 @@ void refine_head(const JointState& from, double jerk, double target_position, co
     }
     if (!(std::abs(e) > tolerance)) break;
   }
+  if (best_x == (plateau ? t1 : t0)) return false;
   (plateau ? t1 : t0) = best_x;
+  return true;
 }
 
 //! `tail`, when given, is the change to rest from the cruise velocity (mirrored as the candidate),
@@ -637,32 +637,44 @@ bool build(const Candidate& c, double target_position, const Lim& L, Profile& ou
            const VelocityChange* tail = nullptr) noexcept {
   const double a_max = L.a_max, j_max = L.j_max;
   const double jerk = c.jerk_sign * c.head_sign * j_max;
-  double t0 = c.t0_s, t1 = c.t1_s;
-  if (c.cruise_s == 0.0 && c.t2_s == 0.0) refine_head(out.end_state(), jerk, target_position, L, t0, t1);
-  if (!(out.append(t0, jerk) && out.append(t1, 0.0) && out.append(c.t2_s, -jerk))) return false;
-  JointState head = out.end_state();
-  head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
-  VelocityChange stop;
-  if (tail != nullptr && head.acceleration == 0.0) {
-    stop = *tail;
-    stop.jerk *= c.jerk_sign;
-  } else {
-    stop = velocity_change(head.velocity, head.acceleration, 0.0, L);
+  const std::size_t first = out.phase_count();
+  const JointState from = out.end_state();
+  const auto append_all = [&](double t0, double t1) {
+    if (!(out.append(t0, jerk) && out.append(t1, 0.0) && out.append(c.t2_s, -jerk))) return false;
+    JointState head = out.end_state();
+    head.acceleration = std::clamp(head.acceleration, -a_max, a_max);
+    VelocityChange stop;
+    if (tail != nullptr && head.acceleration == 0.0) {
+      stop = *tail;
+      stop.jerk *= c.jerk_sign;
+    } else {
+      stop = velocity_change(head.velocity, head.acceleration, 0.0, L);
+    }
+    double cruise = c.cruise_s;
+    if (cruise > 0.0) {
+      // The re-timing changes only the cruise, so the stop is the same after it. The end position
+      // without appending the phases only to drop them again: when the head ends at zero
+      // acceleration (Profile::append zeroes a rounding residue), the stop covers v/2 times its
+      // duration; otherwise integrated as append will.
+      const double end_position =
+          head.acceleration == 0.0
+              ? out.end_state().position + head.velocity * cruise + distance_to_rest(head.velocity, stop)
+              : apply(advance(out.end_state(), 0.0, cruise), stop).position;
+      cruise = std::max(cruise - (end_position - target_position) / head.velocity, 0.0);
+    }
+    return out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
+           out.append(stop.t3, -stop.jerk);
+  };
+  bool appended = append_all(c.t0_s, c.t1_s);
+  if (appended && c.cruise_s == 0.0 && c.t2_s == 0.0) {
+    const double miss = out.end_state().position - target_position;
+    const double tolerance = 1e-13 * (1.0 + std::abs(target_position - from.position));
+    double t0 = c.t0_s, t1 = c.t1_s;
+    if (std::abs(miss) > tolerance && refine_head(from, jerk, target_position, L, tolerance, miss, t0, t1)) {
+      out.truncate(first);
+      appended = append_all(t0, t1);
+    }
   }
-  double cruise = c.cruise_s;
-  if (cruise > 0.0) {
-    // The re-timing changes only the cruise, so the stop is the same after it. The end position
-    // without appending the phases only to drop them again: when the head ends at zero
-    // acceleration (Profile::append zeroes a rounding residue), the stop covers v/2 times its
-    // duration; otherwise integrated as append will.
-    const double end_position =
-        head.acceleration == 0.0
-            ? out.end_state().position + head.velocity * cruise + distance_to_rest(head.velocity, stop)
-            : apply(advance(out.end_state(), 0.0, cruise), stop).position;
-    cruise = std::max(cruise - (end_position - target_position) / head.velocity, 0.0);
-  }
-  const bool appended = out.append(cruise, 0.0) && out.append(stop.t1, stop.jerk) && out.append(stop.t2, 0.0) &&
-                        out.append(stop.t3, -stop.jerk);
   return appended && reaches(out, target_position, L);
 }
 
