@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // mgc-sim: the simulated crane or excavator on a CAN bus, in real time. docs/simulator.md; with
-// --site, one machine of a coordinated site on its own bus (docs/site.md).
+// --site and --machine-id, one machine of a coordinated site on its own bus; with --site alone,
+// every machine of the site, each on its own bus, under one referee (docs/site.md).
 #include <CLI/CLI.hpp>
 
 #include <boost/lockfree/spsc_queue.hpp>
@@ -16,6 +17,7 @@
 #include <cstring>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -31,6 +33,7 @@
 #include "mgc/planning/io/site_loader.hpp"
 #include "mgc/sim/realtime_loop.hpp"
 #include "mgc/sim/simulator.hpp"
+#include "mgc/sim/site_simulation.hpp"
 #include "mgc/sim/truth_monitor.hpp"
 #include "mgc/tools/cli_checks.hpp"
 
@@ -332,6 +335,114 @@ class PhaseTiming {
   std::int64_t max_log_us_ = 0;
 };
 
+//! What mgc-sim --site without --machine-id needs of the command line.
+struct WholeSiteOptions {
+  double duration_s = 0.0;
+  double monitor_period_ms = 50.0;
+  double monitor_margin_m = 0.5;
+  bool quiet = false;
+  bool mlock = false;
+  std::size_t loop_threads = 1;
+};
+
+//! Every machine of the site, each on the bus the site file gives it, stepped by one real-time
+//! loop that waits on all their buses, with one referee over them (docs/site.md). Returns the exit
+//! status.
+int run_whole_site(const mgc::planning::Site& site, const mgc::sim::SimConfig& config, const WholeSiteOptions& o) {
+  const mgc::hal::SteadyClock& clock = mgc::hal::SteadyClock::instance();
+  std::vector<std::unique_ptr<mgc::hal::CanBus>> owned;
+  std::vector<mgc::hal::CanBus*> buses;
+  for (const mgc::planning::SiteMachine& m : site.machines) {
+    mgc::hal::OpenResult opened = mgc::hal::open_can_bus(m.bus.machine_url(), &clock);
+    if (!opened) {
+      std::fprintf(stderr, "%s:%d: %s: machine %d's bus does not open: %s\n", m.bus.ref.file.c_str(), m.bus.ref.line,
+                   m.bus.ref.field.c_str(), static_cast<int>(m.id), opened.error.c_str());
+      return 2;
+    }
+    buses.push_back(opened.bus.get());
+    owned.push_back(std::move(opened.bus));
+  }
+
+  std::optional<mgc::sim::TruthMonitorConfig> monitor_config;
+  if (o.monitor_period_ms > 0.0) {
+    monitor_config = mgc::sim::TruthMonitorConfig{.period_s = o.monitor_period_ms * 1e-3, .clearance_margin_m = o.monitor_margin_m};
+  }
+  mgc::sim::SiteSimulation site_sim(site, buses, config, monitor_config);
+  if (!o.quiet) {
+    for (std::size_t i = 0; i < site_sim.size(); ++i) {
+      const mgc::planning::Scenario& s = site_sim.scenario(i);
+      std::printf("mgc-sim: machine %d: %s on %s, bus %s, %zu joints\n", static_cast<int>(site_sim.machine_id(i)),
+                  s.machine.name.c_str(), s.name.c_str(), buses[i]->url().c_str(), s.machine.joints.size());
+    }
+    std::fflush(stdout);
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+
+  PhaseTiming timing;
+  // The first samples, of the start states, taken before the nodes boot: they pay for what a first
+  // distance query touches for the first time, so the loop does not.
+  if (monitor_config) {
+    const std::int64_t before_us = clock.now_us();
+    (void)site_sim.sample();
+    timing.warm_up(clock.now_us() - before_us);
+  }
+  const MemoryLock locked = o.mlock ? lock_memory() : MemoryLock{};
+  if (o.mlock && !o.quiet) {
+    std::printf("mgc-sim: real-time: memory lock %s%s%s\n", locked.locked ? "yes" : "no", locked.detail.empty() ? "" : ": ",
+                locked.detail.c_str());
+    std::fflush(stdout);
+  }
+  // The shortest SYNC period and staleness limit of the machines: the loop's gaps are judged by
+  // the strictest.
+  std::int64_t sync_period_us = INT64_MAX;
+  std::int64_t stale_after_us = INT64_MAX;
+  for (std::size_t i = 0; i < site_sim.size(); ++i) {
+    sync_period_us = std::min(sync_period_us, site_sim.simulator(i).plan().timing.sync_period_us);
+    stale_after_us = std::min(stale_after_us, site_sim.simulator(i).plan().timing.encoder_stale_after_us);
+  }
+  const std::int64_t start_us = clock.now_us();
+  const std::int64_t end_us = o.duration_s > 0.0 ? start_us + static_cast<std::int64_t>(o.duration_s * 1e6) : INT64_MAX;
+  mgc::sim::RealtimeLoop loop(clock, buses,
+                              {.threads = o.loop_threads, .sync_period_us = sync_period_us, .stale_after_us = stale_after_us});
+  loop.run(
+      [&](std::int64_t now_us) -> std::int64_t {
+        site_sim.step(now_us);
+        timing.step(clock.now_us() - now_us, site_sim.time_s());
+        if (monitor_config) {
+          const std::int64_t before_us = clock.now_us();
+          if (site_sim.sample()) timing.truth_sample(clock.now_us() - before_us, site_sim.time_s());
+        }
+        if (now_us >= end_us) return -1;
+        return std::min(site_sim.next_event_us(), end_us);
+      },
+      g_stop);
+  if (!o.quiet) {
+    for (std::size_t i = 0; i < site_sim.size(); ++i) {
+      const mgc::sim::Simulator& sim = site_sim.simulator(i);
+      const mgc::sim::SimCounters& c = sim.counters();
+      std::printf("mgc-sim: machine %d stopped at %.3f s: %" PRIu64 " frames sent, %" PRIu64 " received, %" PRIu64
+                  " SYNC, %" PRIu64 " commands applied, %" PRIu64 " ignored, %" PRIu64 " fail-safe events, %" PRIu64
+                  " malformed, %" PRIu64 " unknown ids\n",
+                  static_cast<int>(site_sim.machine_id(i)), sim.time_s(), c.frames_sent, c.frames_received, c.syncs,
+                  c.commands_accepted, c.commands_ignored, c.fail_safe_events, c.codec.malformed(), c.codec.unknown_id);
+    }
+  }
+  std::string timing_line = "timing: " + loop.line() + "; " + timing.line();
+  timing_line += locked.locked ? "; memory locked" : "; memory not locked";
+  std::printf("mgc-sim: %s\n", timing_line.c_str());
+  if (monitor_config) {
+    // One line per machine against the site, then the one between the machines: the run's referee,
+    // printed with --quiet too.
+    for (std::size_t i = 0; i < site_sim.size(); ++i) {
+      std::printf("mgc-sim: truth: machine %d: %s\n", static_cast<int>(site_sim.machine_id(i)),
+                  site_sim.monitor(i)->summary_line().c_str());
+    }
+    std::printf("mgc-sim: truth: between the machines: %s\n", site_sim.referee()->summary_line().c_str());
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -356,10 +467,10 @@ int main(int argc, char** argv) {
   std::int32_t machine_id = 0;
   auto* scenario_opt = app.add_option("--scenario", scenario_file, "scenario file (YAML, docs/scenario-format.md)");
   app.add_option("--site", site_file,
-                 "site file (docs/site.md): simulate one machine of the site, its first lift's start, on the bus the "
-                 "site file gives it; instead of --scenario")
+                 "site file (docs/site.md): simulate every machine of the site (or with --machine-id one), each at its "
+                 "first lift's start on the bus the site file gives it; instead of --scenario")
       ->excludes(scenario_opt);
-  app.add_option("--machine-id", machine_id, "with --site: the machine's id in the site file");
+  app.add_option("--machine-id", machine_id, "with --site: simulate only this machine of the site file");
   std::size_t loop_threads = 1;
   app.add_option("--bus", bus_url, "CAN bus URL: loop:, udp:HOST:PORT,peer=HOST:PORT, socketcan:IFNAME (docs/protocol.md)")
       ->capture_default_str();
@@ -398,6 +509,7 @@ int main(int argc, char** argv) {
   }
 
   mgc::planning::Scenario scenario;
+  std::optional<mgc::planning::Site> whole_site;
   mgc::sim::SimConfig config;
   config.seed = seed;
   try {
@@ -405,11 +517,21 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "mgc-sim: --scenario or --site is required (see --help)\n");
       return 2;
     }
-    if (site_file.empty() != (app.count("--machine-id") == 0)) {
-      std::fprintf(stderr, "mgc-sim: --machine-id goes with --site, and --site needs it (see --help)\n");
+    if (site_file.empty() && app.count("--machine-id") > 0) {
+      std::fprintf(stderr, "mgc-sim: --machine-id goes with --site (see --help)\n");
       return 2;
     }
-    if (site_file.empty()) {
+    if (!site_file.empty() && app.count("--machine-id") == 0) {
+      // Every machine of the site: each takes the bus the site file gives it, and the options that
+      // name one machine's joints or file would be ambiguous.
+      for (const char* option : {"--bus", "--truth-csv", "--fault"}) {
+        if (app.count(option) > 0) {
+          std::fprintf(stderr, "mgc-sim: %s takes one machine: with --site, give --machine-id too (see --help)\n", option);
+          return 2;
+        }
+      }
+      whole_site = mgc::planning::io::load_site(site_file);
+    } else if (site_file.empty()) {
       scenario = mgc::planning::io::load_scenario(scenario_file);
     } else {
       // The machine alone: the other machines of the site are not in this simulator (docs/site.md).
@@ -432,6 +554,20 @@ int main(int argc, char** argv) {
   if (uwb_latency_ms >= 0.0) config.uwb.latency_ms = uwb_latency_ms;
   if (uwb_dropout_pct >= 0.0) config.uwb.dropout_probability = uwb_dropout_pct / 100.0;
   if (time_offset_s >= 0.0) config.scenario_time_offset_s = time_offset_s;
+  if (whole_site) {
+    try {
+      return run_whole_site(*whole_site, config,
+                            {.duration_s = duration_s,
+                             .monitor_period_ms = monitor_period_ms,
+                             .monitor_margin_m = monitor_margin_m,
+                             .quiet = quiet,
+                             .mlock = mlock,
+                             .loop_threads = loop_threads});
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "mgc-sim: %s\n", e.what());
+      return 2;
+    }
+  }
 
   const mgc::hal::SteadyClock& clock = mgc::hal::SteadyClock::instance();
   mgc::hal::OpenResult opened = mgc::hal::open_can_bus(bus_url, &clock);

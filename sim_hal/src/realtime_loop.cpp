@@ -45,7 +45,13 @@ void IterationGaps::iteration(std::int64_t now_us, double t_s) noexcept {
 }
 
 RealtimeLoop::RealtimeLoop(const hal::Clock& clock, hal::CanBus& bus, RealtimeLoopConfig config)
-    : clock_(clock), bus_(bus), config_(config), gaps_(config.sync_period_us, config.stale_after_us) {
+    : RealtimeLoop(clock, std::span<hal::CanBus* const>(std::array<hal::CanBus*, 1>{&bus}), config) {}
+
+RealtimeLoop::RealtimeLoop(const hal::Clock& clock, std::span<hal::CanBus* const> buses, RealtimeLoopConfig config)
+    : clock_(clock), buses_(buses.begin(), buses.end()), config_(config), gaps_(config.sync_period_us, config.stale_after_us) {
+  if (buses_.empty() || std::find(buses_.begin(), buses_.end(), nullptr) != buses_.end()) {
+    throw std::invalid_argument("the loop needs at least one bus, none null");
+  }
   if (config_.threads < 1 || config_.threads > kMaxThreads) {
     throw std::invalid_argument("loop threads must be 1.." + std::to_string(kMaxThreads));
   }
@@ -123,7 +129,7 @@ void RealtimeLoop::thread_main(std::size_t index, const Iteration& iteration, co
     if (next_us <= waited_from_us) continue;
     const std::int64_t wait_us = std::min(next_us - waited_from_us, kMaxWaitUs);
     const std::int64_t due_us = waited_from_us + wait_us;
-    (void)bus_.wait_readable(wait_us);
+    (void)buses_[index % buses_.size()]->wait_readable(wait_us);
     // Negative when a frame woke it before the due time.
     const std::int64_t late_us = clock_.now_us() - due_us;
     st.max_late_us = std::max(st.max_late_us, late_us);

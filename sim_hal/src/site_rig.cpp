@@ -28,30 +28,12 @@ std::vector<std::uint8_t> encode(const Msg& msg) {
   return bytes;
 }
 
-planning::ShapePart body_part(const planning::BodySpec& spec, const planning::BodyState& state) {
-  planning::ShapePart part;
-  part.kind = spec.shape == planning::BodyShape::Box ? planning::ShapeKind::Box : planning::ShapeKind::Capsule;
-  part.size_m = state.size_m.cwiseMax(Eigen::Vector3d::Constant(1e-3));
-  return part;
-}
-
 }  // namespace
 
-//! Machine a's bodies against machine b's, every one of both, undilated: b's bodies are dynamic
-//! obstacles posed (and sized) from its true joints at each sample.
-struct SiteRig::PairWorld {
-  std::size_t a = 0;
-  std::size_t b = 0;
-  std::unique_ptr<planning::MachineModel> model_a;
-  std::unique_ptr<planning::MachineModel> model_b;
-  std::unique_ptr<planning::CollisionWorld> world;
-  planning::Kinematics kinematics{};
-  planning::JointVector q_a;
-  planning::JointVector q_b;
-};
-
 SiteRig::SiteRig(const planning::Site& site, SiteRigConfig config, const std::string& bus_prefix)
-    : site_(site), config_(std::move(config)), key_(key_from_seed(config_.faults.seed)), rng_(config_.faults.seed) {
+    : site_(site), config_(std::move(config)), key_(key_from_seed(config_.faults.seed)),
+      referee_(site_),
+      rng_(config_.faults.seed) {
   const firmware::SiteRoster roster = firmware::make_site_roster(site_);
   members_.resize(site_.machines.size());
   last_state_.resize(site_.machines.size());
@@ -72,31 +54,7 @@ SiteRig::SiteRig(const planning::Site& site, SiteRigConfig config, const std::st
     m.lift_start_s = i < config_.lift_start_s.size() ? config_.lift_start_s[i] : 0.0;
     m.rig->on_cycle = [this, i](const hal::SensorSnapshot& s) { cycle(i, s); };
   }
-  for (std::size_t a = 0; a < members_.size(); ++a) {
-    for (std::size_t b = a + 1; b < members_.size(); ++b) {
-      auto w = std::make_unique<PairWorld>();
-      w->a = a;
-      w->b = b;
-      w->model_a = planning::build_model(planning::lift_scenario(site_, a, 0));
-      w->model_b = planning::build_model(planning::lift_scenario(site_, b, 0));
-      w->world = std::make_unique<planning::CollisionWorld>(*w->model_a, 0.0);
-      w->q_a = planning::lift_scenario(site_, a, 0).start;
-      w->q_b = planning::lift_scenario(site_, b, 0).start;
-      w->model_b->forward_kinematics(w->q_b, w->kinematics);
-      for (std::size_t k = 0; k < w->model_b->bodies().size(); ++k) {
-        planning::DynamicObstacle d;
-        d.name = "machine-" + std::to_string(members_[b].machine_id) + "/" + w->model_b->bodies()[k].name;
-        d.parts.push_back(body_part(w->model_b->bodies()[k], w->kinematics.bodies[k]));
-        (void)w->world->add_dynamic(std::move(d));
-      }
-      w->world->finalize();
-      SitePairTruth t;
-      t.machine_a = members_[a].machine_id;
-      t.machine_b = members_[b].machine_id;
-      pairs_.push_back(t);
-      pair_worlds_.push_back(std::move(w));
-    }
-  }
+  for (const SiteRigMember& m : members_) truths_.push_back(&m.rig->sim->truth());
 }
 
 SiteRig::~SiteRig() = default;
@@ -116,11 +74,7 @@ SiteRigMember& SiteRig::member(std::int32_t machine_id) {
 
 bool SiteRig::lift_done(const SiteRigMember& m) const noexcept { return m.controller->stats().goals_reached > 0; }
 
-double SiteRig::least_between_m() const noexcept {
-  double least = std::numeric_limits<double>::infinity();
-  for (const SitePairTruth& p : pairs_) least = std::min(least, p.least_m);
-  return least;
-}
+double SiteRig::least_between_m() const noexcept { return referee_.least_m(); }
 
 double SiteRig::least_to_site_m() const noexcept {
   double least = std::numeric_limits<double>::infinity();
@@ -302,27 +256,7 @@ void SiteRig::referee() {
   for (SiteRigMember& m : members_) (void)m.truth->sample(*m.rig->sim);
   if (now_s < next_truth_s_) return;
   next_truth_s_ = now_s + config_.truth_period_s;
-  for (std::size_t k = 0; k < pair_worlds_.size(); ++k) {
-    PairWorld& w = *pair_worlds_[k];
-    const TrueState& ta = members_[w.a].rig->sim->truth();
-    const TrueState& tb = members_[w.b].rig->sim->truth();
-    for (int j = 0; j < w.q_a.size(); ++j) w.q_a[j] = ta.position[static_cast<std::size_t>(j)];
-    for (int j = 0; j < w.q_b.size(); ++j) w.q_b[j] = tb.position[static_cast<std::size_t>(j)];
-    w.model_b->forward_kinematics(w.q_b, w.kinematics);
-    for (std::size_t b = 0; b < w.model_b->bodies().size(); ++b) {
-      const planning::BodyState& body = w.kinematics.bodies[b];
-      w.world->set_dynamic_part_size(static_cast<int>(b), 0, body.size_m.cwiseMax(Eigen::Vector3d::Constant(1e-3)));
-      w.world->set_dynamic_pose(static_cast<int>(b), body.world_from_body);
-    }
-    const double d_m =
-        w.world->clearance(w.q_a, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
-    SitePairTruth& t = pairs_[k];
-    if (d_m < t.least_m) {
-      t.least_m = d_m;
-      t.least_t_s = now_s;
-    }
-    if (d_m <= 0.0) ++t.samples_in_contact;
-  }
+  referee_.measure(now_s, truths_);
 }
 
 }  // namespace mgc::sim

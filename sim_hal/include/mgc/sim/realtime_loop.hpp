@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <functional>
 #include <mutex>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/clock.hpp"
@@ -68,9 +70,11 @@ struct RealtimeLoopConfig {
   std::int64_t stale_after_us = 30'000;  //!< the controller's staleness limit for an answer [us]
 };
 
-//! Runs an iteration function in real time on a bus. Each thread runs an iteration, then waits
-//! until the time the iteration asked for or until a frame arrives (bus.wait_readable), and
-//! again; the iterations are serialised by one lock, so the function needs no locking of its own,
+//! Runs an iteration function in real time on a bus, or on several (the machines of a site in one
+//! process). Each thread runs an iteration, then waits until the time the iteration asked for or
+//! until a frame arrives on its bus (bus.wait_readable; with several buses, thread i waits on bus
+//! i modulo their number, and a frame on another bus is seen at the next due time: the simulator's
+//! physics step, 1 ms), and again; the iterations are serialised by one lock, so the function needs no locking of its own,
 //! and the clock is read under that lock, so now_us never goes backwards. With several threads
 //! each waits on its own CPU: when one is not run for a while, another wakes on time and takes
 //! its iterations; the thread that wakes second finds nothing left to do and waits again.
@@ -83,6 +87,8 @@ class RealtimeLoop {
 
   //! Throws std::invalid_argument for no thread, more than kMaxThreads, or periods not positive.
   RealtimeLoop(const hal::Clock& clock, hal::CanBus& bus, RealtimeLoopConfig config);
+  //! The same on several buses (at least one, none null); the iteration serves all of them.
+  RealtimeLoop(const hal::Clock& clock, std::span<hal::CanBus* const> buses, RealtimeLoopConfig config);
 
   //! Runs until an iteration returns a negative time or stop is set. The calling thread is one of
   //! the loop threads; the others are started here and inherit its scheduling policy (chrt).
@@ -105,7 +111,7 @@ class RealtimeLoop {
   void thread_main(std::size_t index, const Iteration& iteration, const std::atomic<bool>& stop) noexcept;
 
   const hal::Clock& clock_;
-  hal::CanBus& bus_;
+  std::vector<hal::CanBus*> buses_;
   RealtimeLoopConfig config_;
   std::size_t threads_ = 1;
   std::array<int, kMaxThreads> cpus_{};

@@ -22,6 +22,7 @@
 #include "mgc/firmware/site_auth.hpp"
 #include "mgc/firmware/site_member.hpp"
 #include "mgc/planning/site.hpp"
+#include "mgc/sim/site_referee.hpp"
 #include "mgc/sim/stepped_rig.hpp"
 #include "mgc/sim/truth_monitor.hpp"
 
@@ -82,15 +83,6 @@ struct SiteRigMember {
   std::string log;  //!< supervisor transitions, one a line
 };
 
-//! The least true clearance of two machines seen so far.
-struct SitePairTruth {
-  std::int32_t machine_a = 0;
-  std::int32_t machine_b = 0;
-  double least_m = 1e9;
-  double least_t_s = 0.0;
-  std::uint64_t samples_in_contact = 0;
-};
-
 class SiteRig {
  public:
   //! Builds every machine's rig, controller and verifier (the site key is made from the seed: the
@@ -117,7 +109,7 @@ class SiteRig {
   [[nodiscard]] std::int64_t realtime_us() const noexcept;
   [[nodiscard]] SiteRigMember& member(std::int32_t machine_id);
   [[nodiscard]] std::vector<SiteRigMember>& members() noexcept { return members_; }
-  [[nodiscard]] const std::vector<SitePairTruth>& pairs() const noexcept { return pairs_; }
+  [[nodiscard]] const std::vector<SitePairTruth>& pairs() const noexcept { return referee_.pairs(); }
   //! Least of every pair's least clearance. [m]
   [[nodiscard]] double least_between_m() const noexcept;
   //! Least of every member's true clearance to the site. [m]
@@ -133,7 +125,6 @@ class SiteRig {
     bool plan = false;
     std::vector<std::uint8_t> bytes;
   };
-  struct PairWorld;
   void cycle(std::size_t i, const hal::SensorSnapshot& s);
   void publish(std::size_t i);
   void send(std::size_t from, bool plan, const std::vector<std::uint8_t>& bytes);
@@ -147,8 +138,8 @@ class SiteRig {
   std::vector<Pending> pending_;
   std::vector<std::vector<std::uint8_t>> last_state_;
   std::vector<bool> muted_;
-  std::vector<SitePairTruth> pairs_;
-  std::vector<std::unique_ptr<PairWorld>> pair_worlds_;
+  SitePairReferee referee_;
+  std::vector<const TrueState*> truths_;  //!< each member's simulator's, in site order, for the referee
   std::mt19937_64 rng_;
   std::int64_t t_us_ = 0;
   double next_truth_s_ = 0.0;

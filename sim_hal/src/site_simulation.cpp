@@ -1,0 +1,65 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mgc/sim/site_simulation.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+
+namespace mgc::sim {
+namespace {
+
+//! As the truth monitor's: a sample due at 0.05 s must not wait a physics step for a rounding
+//! error of the microsecond clock. [s]
+constexpr double kTimeSlack_s = 1e-9;
+
+}  // namespace
+
+SiteSimulation::SiteSimulation(const planning::Site& site, std::span<hal::CanBus* const> buses, const SimConfig& config,
+                               std::optional<TruthMonitorConfig> monitor) {
+  if (buses.size() != site.machines.size()) {
+    throw std::invalid_argument("site simulation: " + std::to_string(buses.size()) + " buses for " +
+                                std::to_string(site.machines.size()) + " machines");
+  }
+  for (std::size_t i = 0; i < site.machines.size(); ++i) {
+    ids_.push_back(site.machines[i].id);
+    scenarios_.push_back(std::make_unique<planning::Scenario>(planning::lift_scenario(site, i, 0)));
+    SimConfig c = config;
+    c.seed = config.seed + i;
+    sims_.push_back(std::make_unique<Simulator>(*scenarios_.back(), *buses[i], c));
+    truths_.push_back(&sims_.back()->truth());
+    if (monitor) monitors_.push_back(std::make_unique<TruthMonitor>(*scenarios_.back(), *monitor));
+  }
+  if (monitor) {
+    period_s_ = monitor->period_s;
+    referee_ = std::make_unique<SitePairReferee>(site, monitor->clearance_margin_m);
+  }
+}
+
+SiteSimulation::~SiteSimulation() = default;
+
+void SiteSimulation::step(std::int64_t now_us) noexcept {
+  for (const auto& sim : sims_) sim->step(now_us);
+}
+
+bool SiteSimulation::sample() noexcept {
+  bool measured = false;
+  for (std::size_t i = 0; i < monitors_.size(); ++i) measured = monitors_[i]->sample(*sims_[i]) || measured;
+  if (!referee_) return measured;
+  const double t_s = time_s();
+  if (next_sample_t_s_ >= 0.0 && t_s < next_sample_t_s_ - kTimeSlack_s) return measured;
+  referee_->measure(t_s, truths_);
+  // On the period's grid while the loop keeps up; from now on when it fell behind by a period.
+  next_sample_t_s_ = next_sample_t_s_ < 0.0 ? t_s + period_s_ : next_sample_t_s_ + period_s_;
+  if (next_sample_t_s_ <= t_s) next_sample_t_s_ = t_s + period_s_;
+  return true;
+}
+
+std::int64_t SiteSimulation::next_event_us() const noexcept {
+  std::int64_t next_us = std::numeric_limits<std::int64_t>::max();
+  for (const auto& sim : sims_) next_us = std::min(next_us, sim->next_event_us());
+  return next_us;
+}
+
+double SiteSimulation::time_s() const noexcept { return sims_.empty() ? 0.0 : sims_.front()->time_s(); }
+
+}  // namespace mgc::sim
