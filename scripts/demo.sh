@@ -12,10 +12,19 @@
 # the true machine state (CSV). mgc-display serves the operator's screen during the lift (its URL
 # is printed; MGC_DEMO_DISPLAY_PORT, default 8780), and a headless-Chromium picture of that screen
 # at the end of the lift, played from the log, goes to build/demo/display.png.
+# Then the coordinated site (docs/site.md; scripts/lib/site_demo.sh): the two cranes of
+# scenarios/sites/crossing-cranes.yaml, the tower crane's lift crossing the TMS870's route, in one
+# mgc-sim that simulates both, each on its own bus, and referees the true clearance between them;
+# one mgc per machine, members of the site channel (signed with a site key); each lift requested
+# with a signed command from the machine's own operator station (mgc-operator, its own key and
+# feed). At the end: both mgc summaries' key lines and the simulator's truth lines, among them the
+# least true clearance between the two machines; the outputs in build/demo/site/.
 # Then, offline: every shipped scenario loaded, checked and planned (the default one-joint-at-a-time
 # planner axis-connect; the two-crane lifts with multi-rrt; the excavator's work cycle with nonuniform), and the event
 # scenarios executed with re-planning (mgc-bench's replan suite, two seeds). Installs missing
-# Debian packages.
+# Debian packages. MGC_DEMO_PART=site runs only the coordinated site (after the build).
+# Exits non-zero when a step fails: a lift not completed, a true contact between the site's
+# machines, a scenario that does not plan.
 set -euo pipefail
 source "$(dirname "$0")/lib/common.sh"
 mgc_install_packages
@@ -24,6 +33,12 @@ bin="$MGC_BUILD_DIR/bin"
 out="$MGC_BUILD_DIR/demo"
 mkdir -p "$out"
 status=0
+source "$MGC_ROOT/scripts/lib/site_demo.sh"
+case "${MGC_DEMO_PART:-all}" in
+  all) ;;
+  site) site_demo; exit ;;
+  *) echo "demo: MGC_DEMO_PART must be all or site, not '$MGC_DEMO_PART'" >&2; exit 2 ;;
+esac
 
 site="$MGC_ROOT/scenarios/thesis-steel-frame.yaml"
 # The default transport: SocketCAN when a CAN interface is up (a vcan; on a real bus the machine's
@@ -112,6 +127,9 @@ python=/usr/bin/python3
 if "$python" "$MGC_ROOT/scripts/lib/display_screenshot.py" "$bin/mgc-display" "$site" "$out/mgc.lcmlog" "$out/display.png"; then
   echo "operator display at the end of the lift: build/demo/display.png"
 fi
+echo
+
+site_demo || status=$?
 echo
 
 for scenario in "$MGC_ROOT"/scenarios/*.yaml; do

@@ -21,6 +21,7 @@
 #include "mgc/firmware/command_auth.hpp"
 #include "mgc/firmware/lcm_feed.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
+#include "mgc/planning/io/site_loader.hpp"
 #include "mgc/tools/cli_checks.hpp"
 
 namespace {
@@ -137,6 +138,8 @@ int main(int argc, char** argv) {
   std::string lcm_url = mgc::firmware::kDefaultLcmUrl;
   std::string key_file;
   std::string scenario_file;
+  std::string site_file;
+  int machine_id = 0;
   bool goal = false;
   bool stop = false;
   bool acknowledge = false;
@@ -145,7 +148,10 @@ int main(int argc, char** argv) {
   int sender_id = 1;
   app.add_option("--lcm-url", lcm_url, "LCM provider")->capture_default_str();
   app.add_option("--key", key_file, "shared command key (32 raw bytes), needed for --goal and --ack");
-  app.add_option("--scenario", scenario_file, "scenario whose goal --goal requests");
+  auto* scenario_opt = app.add_option("--scenario", scenario_file, "scenario whose goal --goal requests");
+  app.add_option("--site", site_file, "instead of --scenario: site file whose machine's first lift's goal --goal requests")
+      ->excludes(scenario_opt);
+  app.add_option("--machine-id", machine_id, "with --site: the machine's id in the site file");
   app.add_flag("--goal", goal, "request the scenario's goal (signed)");
   app.add_flag("--stop", stop, "stop (unsigned: obeyed from anyone)");
   app.add_flag("--ack", acknowledge, "acknowledge every alert waiting for it (signed)");
@@ -163,8 +169,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mgc-operator: --goal and --ack are signed: expected --key FILE\n");
     return 2;
   }
-  if (goal && scenario_file.empty()) {
-    std::fprintf(stderr, "mgc-operator: --goal: expected --scenario FILE for the goal\n");
+  if (goal && scenario_file.empty() && site_file.empty()) {
+    std::fprintf(stderr, "mgc-operator: --goal: expected --scenario FILE (or --site FILE --machine-id N) for the goal\n");
+    return 2;
+  }
+  if (site_file.empty() != (app.count("--machine-id") == 0)) {
+    std::fprintf(stderr, "mgc-operator: --machine-id goes with --site, and --site needs it (see --help)\n");
     return 2;
   }
 
@@ -202,7 +212,14 @@ int main(int argc, char** argv) {
     if (stop) send(mgc::operator_command_t::KIND_STOP, nullptr);
     if (acknowledge) send(mgc::operator_command_t::KIND_ACKNOWLEDGE, nullptr);
     if (goal) {
-      const mgc::planning::Scenario s = mgc::planning::io::load_scenario(scenario_file);
+      mgc::planning::Scenario s;
+      if (site_file.empty()) {
+        s = mgc::planning::io::load_scenario(scenario_file);
+      } else {
+        // The lift mgc --site runs: the machine's first.
+        const mgc::planning::Site site = mgc::planning::io::load_site(site_file);
+        s = mgc::planning::lift_scenario(site, mgc::planning::io::site_machine_index(site, machine_id), 0);
+      }
       // The controller takes a goal only in HOLD: wait for it (up to 10 s) before sending.
       const std::int64_t give_up = watcher.now() + 10'000'000;
       while (watcher.state() != mgc::machine_state_t::SUPERVISOR_HOLD && watcher.now() < give_up) lcm.handleTimeout(100);
