@@ -25,20 +25,21 @@ site_demo() {
   local site_url="udpm://239.255.76.68:7668?ttl=0"
   feed_url() { echo "udpm://239.255.76.67:$((7670 + $1))?ttl=0"; }
 
-  # Real time where permitted, as for the single lift, but measured on this 2-vCPU shared host:
-  # the simulator runs its loop on 2 threads (one per CPU, each answering when the other CPU is
-  # taken away), and each controller on ONE loop thread. With a standby thread each (--loop-threads
-  # 2), 6 SCHED_FIFO loop threads wake every 1-10 ms on 2 CPUs, and the controllers' standby
-  # threads, running their cycles at priority 50 beside the planner's repairs, held the
-  # simulator's loop (priority 40) past the 30 ms staleness limit in the measured runs;
-  # MGC_DEMO_SITE_LOOP_THREADS=2 repeats that measurement.
+  # Real time where permitted, as for the single lift: the simulator under SCHED_FIFO 40 with its
+  # loop on 2 threads, one per CPU, and each controller at 50 with a standby loop thread
+  # (--loop-threads 2), so 6 real-time loop threads on this host's 2 shared vCPUs. Measured here
+  # (2 runs each): with one loop thread per controller, controller wake-ups up to 9.9 ms late and
+  # the simulator's longest gap 20-53 ms (one run with a valve fault at 7.6 s, beside a build);
+  # with two, wake-ups up to 7.5 ms late (the standby thread ran 8-320 cycles), the simulator's
+  # longest gap 11-34 ms: the standby threads cost the simulator nothing it needs, and cover the
+  # controllers' stalls. MGC_DEMO_SITE_LOOP_THREADS=1 repeats the comparison.
   local sim_rt=() sim_lock=() mgc_rt=()
   if chrt -f 1 true 2>/dev/null; then
     sim_rt=(chrt -f 40)
     sim_lock=(--mlock)
     mgc_rt=(--fifo-priority 50 --mlock)
   fi
-  local mgc_threads="${MGC_DEMO_SITE_LOOP_THREADS:-1}"
+  local mgc_threads="${MGC_DEMO_SITE_LOOP_THREADS:-2}"
 
   echo "=== the coordinated site: crossing-cranes.yaml, the tower crane's lift (priority 1) across the TMS870's (priority 2)"
   echo "    one mgc-sim for both machines (UDP buses of the site file) + one mgc and one mgc-operator per machine"
@@ -54,12 +55,16 @@ site_demo() {
     mgc_pids+=($!)
   done
   # Each operator station requests its machine's lift once the controller is in HOLD and watches
-  # it to its end. A member stays on the site channel after its own lift: a machine that goes
-  # silent is posed by its frozen pose, grown with its speed bound, and would stop the other.
-  for id in "${ids[@]}"; do
+  # it to its end: the tower crane's (priority 1) first, the TMS870's 2 s later, when the tower
+  # crane's plan is on the site channel (requested together, the TMS870 re-planned for 53 s or
+  # took a repaired path of over 4 minutes in 2 of 5 runs; docs/site.md). A member stays on the
+  # site channel after its own lift: a machine that goes silent is posed by its frozen pose, grown
+  # with its speed bound, and would stop the other.
+  for id in 2 1; do
     "$bin/mgc-operator" --key "$dir/operator-$id.key" --lcm-url "$(feed_url "$id")" --site "$site" --machine-id "$id" \
       --goal --watch 300 --until-done >"$dir/operator-$id.txt" 2>&1 &
     op_pids+=($!)
+    sleep 2
   done
   for id in "${!op_pids[@]}"; do
     wait "${op_pids[$id]}" || result=1
