@@ -44,25 +44,26 @@ site_demo() {
   echo "=== the coordinated site: crossing-cranes.yaml, the tower crane's lift (priority 1) across the TMS870's (priority 2)"
   echo "    one mgc-sim for both machines (UDP buses of the site file) + one mgc and one mgc-operator per machine"
   read -r steal_before total_before < <(site_cpu_times || echo "0 0")
-  "${sim_rt[@]}" "$bin/mgc-sim" --site "$site" --duration 330 --quiet --loop-threads 2 "${sim_lock[@]}" \
+  "${sim_rt[@]}" "$bin/mgc-sim" --site "$site" --duration 210 --quiet --loop-threads 2 "${sim_lock[@]}" \
     >"$dir/sim.txt" 2>&1 &
   local sim_pid=$!
   local mgc_pids=() op_pids=()
   for id in "${ids[@]}"; do
     "$bin/mgc" --site "$site" --machine-id "$id" --site-key "$dir/site.key" --site-lcm-url "$site_url" \
-      --key "$dir/operator-$id.key" --lcm-url "$(feed_url "$id")" --duration 320 --loop-threads "$mgc_threads" \
+      --key "$dir/operator-$id.key" --lcm-url "$(feed_url "$id")" --duration 200 --loop-threads "$mgc_threads" \
       "${mgc_rt[@]}" >"$dir/mgc-$id.txt" 2>&1 &
     mgc_pids+=($!)
   done
   # Each operator station requests its machine's lift once the controller is in HOLD and watches
-  # it to its end: the tower crane's (priority 1) first, the TMS870's 2 s later, when the tower
-  # crane's plan is on the site channel (requested together, the TMS870 re-planned for 53 s or
-  # took a repaired path of over 4 minutes in 2 of 5 runs; docs/site.md). A member stays on the
-  # site channel after its own lift: a machine that goes silent is posed by its frozen pose, grown
-  # with its speed bound, and would stop the other.
+  # it to its end, for at most 180 s (the TMS870's lift takes 83-88 s when it completes; one whose
+  # repair went the long way, docs/site.md "Limits", took 4 minutes and more): the tower crane's
+  # (priority 1) first, the TMS870's 2 s later, when the tower crane's plan is on the site channel,
+  # so that it plans round it from the start instead of stopping for a machine not yet heard. A
+  # member stays on the site channel after its own lift: a machine that goes silent is posed by its
+  # frozen pose, grown with its speed bound, and would stop the other.
   for id in 2 1; do
     "$bin/mgc-operator" --key "$dir/operator-$id.key" --lcm-url "$(feed_url "$id")" --site "$site" --machine-id "$id" \
-      --goal --watch 300 --until-done >"$dir/operator-$id.txt" 2>&1 &
+      --goal --watch 180 --until-done >"$dir/operator-$id.txt" 2>&1 &
     op_pids+=($!)
     sleep 2
   done

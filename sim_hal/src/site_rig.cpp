@@ -31,7 +31,9 @@ std::vector<std::uint8_t> encode(const Msg& msg) {
 }  // namespace
 
 SiteRig::SiteRig(const planning::Site& site, SiteRigConfig config, const std::string& bus_prefix)
-    : site_(site), config_(std::move(config)), key_(key_from_seed(config_.faults.seed)),
+    : site_(site),
+      config_(std::move(config)),
+      key_(key_from_seed(config_.faults.seed)),
       referee_(site_),
       rng_(config_.faults.seed) {
   const firmware::SiteRoster roster = firmware::make_site_roster(site_);
