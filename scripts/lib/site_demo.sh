@@ -28,11 +28,11 @@ site_demo() {
   # Real time where permitted, as for the single lift: the simulator under SCHED_FIFO 40 with its
   # loop on 2 threads, one per CPU, and each controller at 50 with a standby loop thread
   # (--loop-threads 2), so 6 real-time loop threads on this host's 2 shared vCPUs. Measured here
-  # (2 runs each): with one loop thread per controller, controller wake-ups up to 9.9 ms late and
+  # (3 runs each): with one loop thread per controller, controller wake-ups up to 9.9 ms late and
   # the simulator's longest gap 20-53 ms (one run with a valve fault at 7.6 s, beside a build);
-  # with two, wake-ups up to 7.5 ms late (the standby thread ran 8-320 cycles), the simulator's
-  # longest gap 11-34 ms: the standby threads cost the simulator nothing it needs, and cover the
-  # controllers' stalls. MGC_DEMO_SITE_LOOP_THREADS=1 repeats the comparison.
+  # with two, wake-ups up to 7.9 ms late (the standby threads ran 8-320 cycles), the simulator's
+  # longest gap 11-34 ms: the standby threads did not hold up the simulator, and covered the
+  # controllers' late wake-ups. MGC_DEMO_SITE_LOOP_THREADS=1 repeats the comparison.
   local sim_rt=() sim_lock=() mgc_rt=()
   if chrt -f 1 true 2>/dev/null; then
     sim_rt=(chrt -f 40)
