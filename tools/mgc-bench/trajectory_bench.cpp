@@ -65,16 +65,15 @@ struct Row {
   const char* what;
   Stats current, baseline;
   int failures = 0, baseline_failures = 0;
-  const char* ruckig;
 };
 
 //! Times `current(i)` and `baseline(i)` on the same problems in groups of `dofs`, alternating which
 //! runs first, twice; the first pass warms caches and branch predictors.
 template <class Current, class Baseline>
-Row measure(const char* what, const char* ruckig, std::size_t problem_count, std::size_t dofs, const Current& current,
+Row measure(const char* what, std::size_t problem_count, std::size_t dofs, const Current& current,
             const Baseline& baseline) {
   std::vector<double> ours_us, base_us;
-  Row row{what, {}, {}, 0, 0, ruckig};
+  Row row{what, {}, {}, 0, 0};
   for (int pass = 0; pass < 2; ++pass) {
     ours_us.clear();
     base_us.clear();
@@ -146,10 +145,10 @@ int run_trajectory_suite(const TrajectoryBenchOptions& options) {
   };
   const auto n = static_cast<std::size_t>(options.cases);
   const Row rows[] = {
-      measure("1-DoF time-optimal, moving start (closed form)", "~0.2 us", n, 1, single, single_baseline),
-      measure("synchronized 4-DoF, moving starts (calculate_synchronized)", "~2 us", 4 * n, 4, synchronized,
+      measure("1-DoF time-optimal, moving start (closed form)", n, 1, single, single_baseline),
+      measure("synchronized 4-DoF, moving starts (calculate_synchronized)", 4 * n, 4, synchronized,
               synchronized_baseline),
-      measure("4 x 1-DoF time-optimal, not synchronized (for comparison)", "", 4 * n, 4, independent,
+      measure("4 x 1-DoF time-optimal, not synchronized (for comparison)", 4 * n, 4, independent,
               independent_baseline),
   };
 
@@ -199,15 +198,15 @@ int run_trajectory_suite(const TrajectoryBenchOptions& options) {
                       "exact braking, tools/mgc-bench/trajectory_baseline.cpp), alternately.\n\n"
                       "| case | median us | p95 us | p99 us | max us | baseline median us | baseline p95 us | "
                       "baseline p99 us | baseline/current median | baseline/current p95 | baseline/current p99 | "
-                      "failures (baseline) | Ruckig (issue) |\n"
-                      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+                      "failures (baseline) |\n"
+                      "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Row& r : rows) {
     char line[512];
-    std::snprintf(line, sizeof line, "| %s | %.3f | %.3f | %.3f | %.1f | %.3f | %.3f | %.3f | %.2fx | %.2fx | %.2fx | %d (%d) | %s |\n",
+    std::snprintf(line, sizeof line, "| %s | %.3f | %.3f | %.3f | %.1f | %.3f | %.3f | %.3f | %.2fx | %.2fx | %.2fx | %d (%d) |\n",
                   r.what, r.current.median_us, r.current.p95_us, r.current.p99_us, r.current.max_us,
                   r.baseline.median_us, r.baseline.p95_us, r.baseline.p99_us, r.baseline.median_us / r.current.median_us,
                   r.baseline.p95_us / r.current.p95_us, r.baseline.p99_us / r.current.p99_us, r.failures,
-                  r.baseline_failures, r.ruckig);
+                  r.baseline_failures);
     table += line;
   }
   {
