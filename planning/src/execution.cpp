@@ -357,7 +357,7 @@ ExecutionResult execute_with_replanning(const Scenario& scenario, const Planning
     last_repair_s = t_s;
     event.status = status;
     const ReplanStats stats = replanner.stats();
-    event.iterations = stats.iterations;
+    event.iterations = stats.repair_iterations;
     event.invalidated_nodes = stats.invalidated_nodes;
     event.bridge_attempts = stats.bridge_attempts;
     if (status == PlannerStatus::Solved) {

@@ -413,6 +413,62 @@ TEST_CASE("drrt-axis-connect gets past the swinging crane and the parking truck,
   CHECK(paths >= 5);
 }
 
+TEST_CASE("a bridging repair spends its iteration cap across all its bridges", "[replan]") {
+  // Crane 2 becomes a cage round our hanging load at the start (slew 80 deg, trolley 15 m, load
+  // low): four walls and a lid with a slot for the hoist line. The load can trolley and hoist a
+  // little inside it and get out nowhere, while every later node of the first path, out of the
+  // cage, stays valid: each bridge fails and the repair drops that node and bridges to the next.
+  // Each bridge used to get the first plan's whole cap, so such a repair ran for as many caps as
+  // its path had nodes; the repair's own cap (the thesis's Replan_Max_Nodes) now bounds them all.
+  Scenario scenario = io::load_scenario(mgc::test::source_path("scenarios/thesis-steel-frame-tower.yaml"));
+  const double slew_rad = 80.0 * M_PI / 180.0;
+  Eigen::Isometry3d radial = Eigen::Isometry3d::Identity();
+  radial.linear() = Eigen::AngleAxisd(slew_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const auto box = [&](double r_m, double t_m, double z_m, double size_r_m, double size_t_m, double size_z_m) {
+    ShapePart part;
+    part.size_m = Eigen::Vector3d(size_r_m, size_t_m, size_z_m);
+    part.pose = radial;
+    part.pose.translation() = radial.linear() * Eigen::Vector3d(r_m, t_m, z_m);
+    return part;
+  };
+  DynamicObstacleSpec& cage = scenario.dynamic_obstacles.at(0);
+  cage.obstacle.parts = {box(10.25, 0.0, 3.5, 0.5, 7.0, 7.0),  box(19.75, 0.0, 3.5, 0.5, 7.0, 7.0),
+                         box(15.0, 3.25, 3.5, 9.0, 0.5, 7.0),  box(15.0, -3.25, 3.5, 9.0, 0.5, 7.0),
+                         box(15.0, 2.0, 7.25, 10.0, 3.2, 0.5), box(15.0, -2.0, 7.25, 10.0, 3.2, 0.5)};
+  cage.motion = {Keyframe{0.0, Eigen::Vector3d(1000.0, 1000.0, 0.0), 0.0}};  // away for the first plan
+  const auto model = build_model(scenario);
+  const auto world = build_world(scenario, *model);
+  PlanningProblem problem = planning_problem(scenario, *model, *world);
+
+  const auto repair = [&](int repair_cap) {
+    auto replanner = make_replanner("drrt-axis-connect");
+    ReplanSettings settings = replan_settings(scenario);
+    settings.max_iterations = repair_cap;
+    world->set_dynamic_pose(0, cage.pose_at(0.0));
+    PlannerStatus s = replanner->reset(problem, settings);
+    while (s == PlannerStatus::Running) s = replanner->step(100);
+    REQUIRE(s == PlannerStatus::Solved);
+    const std::vector<JointVector> path = replanner->path();
+    world->set_dynamic_pose(0, Eigen::Isometry3d::Identity());
+    REQUIRE(world->validate(problem.start).valid());
+    s = replanner->replan(problem.start, 1);
+    while (s == PlannerStatus::Running) s = replanner->step(100);
+    CHECK(replanner->path() == path);  // a failed repair keeps the old path
+    return std::make_pair(s, replanner->stats());
+  };
+  const auto [unbounded, all] = repair(1'000'000);
+  CHECK(unbounded == PlannerStatus::IterationLimit);
+  REQUIRE(all.bridge_attempts >= 2);
+  CHECK(all.repair_iterations == all.bridge_attempts * problem.max_iterations);
+
+  // One and a half bridges' worth: the second bridge gets only what the first left.
+  const int cap = problem.max_iterations + problem.max_iterations / 2;
+  const auto [capped, some] = repair(cap);
+  CHECK(capped == PlannerStatus::IterationLimit);
+  CHECK(some.repair_iterations == cap);
+  CHECK(some.bridge_attempts == 2);
+}
+
 TEST_CASE("re-planning is repeatable: the same seed gives the same execution", "[replan]") {
   for (const char* name : {"drrt", "drrt-con-con-mod", "drrt-axis-connect"}) {
     CAPTURE(name);

@@ -130,7 +130,9 @@ class DrrtReplanner final : public Replanner {
   }
 
   [[nodiscard]] ReplanStats stats() const noexcept override {
-    return with_query(stats_, tree_.stats(), problem_, checks_at_reset_);
+    ReplanStats s = with_query(stats_, tree_.stats(), problem_, checks_at_reset_);
+    if (repairing_) s.repair_iterations = s.iterations;
+    return s;
   }
 
  private:
@@ -251,9 +253,14 @@ class BridgingReplanner final : public Replanner {
       if (s == PlannerStatus::Solved) path_.assign(planner_->path().begin(), planner_->path().end());
       return status_ = s;
     }
+    budget_left_ -= planner_->stats().iterations;
+    stats_.repair_iterations += planner_->stats().iterations;
     if (s == PlannerStatus::Solved) return status_ = merge();
     // Fig. 8 lines 16-23: the bridge failed; the goal was the last hope.
     if (goal_index_ + 1 >= path_.size()) return status_ = s;
+    // The repair's cap is spent across its bridges: without it, dropping one node per failed
+    // bridge would let a repair run for as many caps as the path has nodes.
+    if (budget_left_ <= 0) return status_ = PlannerStatus::IterationLimit;
     ++goal_index_;
     return status_ = bridge();
   }
@@ -268,6 +275,8 @@ class BridgingReplanner final : public Replanner {
     stats_.bridge_attempts = 0;
     stats_.invalidated_nodes = 0;
     stats_.checked_nodes = 0;
+    budget_left_ = settings_.max_iterations;
+    stats_.repair_iterations = 0;
     if (!problem_->world->validate(q_machine).valid()) return status_ = PlannerStatus::InvalidStart;
     bridge_.start = q_machine;
     goal_index_ = static_cast<std::size_t>(std::clamp(next, 1, static_cast<int>(path_.size()) - 1));
@@ -300,8 +309,9 @@ class BridgingReplanner final : public Replanner {
     // A seed of its own per bridge: repeatable, and unlike the first plan's.
     bridge_.seed = problem_->seed + 0x9E3779B97F4A7C15ULL * static_cast<std::uint64_t>(stats_.repairs * 64 + stats_.bridge_attempts + 1);
     ++stats_.bridge_attempts;
-    // Same caps as the first plan: the trees' and path's reserved capacity suffices, so this
+    // At most the first plan's caps: the trees' and path's reserved capacity suffices, so this
     // reset does not allocate.
+    bridge_.max_iterations = std::min(problem_->max_iterations, budget_left_);
     const PlannerStatus s = planner_->reset(bridge_);
     return s == PlannerStatus::InvalidGoal ? PlannerStatus::IterationLimit : s;
   }
@@ -326,6 +336,7 @@ class BridgingReplanner final : public Replanner {
   bool repairing_ = false;
   bool checked_old_path_ = false;  //!< the current repair checked the old path's edges too
   std::size_t goal_index_ = 0;
+  int budget_left_ = 0;  //!< iterations the current repair may still spend on bridges
   std::vector<JointVector> path_;
   std::vector<JointVector> candidate_;
   ReplanStats stats_;

@@ -32,7 +32,7 @@ struct RepairEvent {
   int obstacle = -1;     //!< dynamic obstacle the blocked motion hit; -1 if something else
   PlannerStatus status = PlannerStatus::NotReset;  //!< how the repair ended
   double compute_ms = 0.0;  //!< by the caller's clock, from replan() to the end of the repair [ms]
-  int iterations = 0;
+  int iterations = 0;     //!< of the whole repair (ReplanStats::repair_iterations)
   int invalidated_nodes = 0;
   int bridge_attempts = 0;
   int path_nodes = 0;     //!< of the repaired path

@@ -13,7 +13,8 @@ namespace mgc::planning {
 //! The re-planning parameters of the thesis's Table 4.1 (Replan_Max_Nodes,
 //! Replan_Biasing_Probability) and its dual-phase switch.
 struct ReplanSettings {
-  int max_iterations = 2000;  //!< iteration cap of one repair
+  //! Iteration cap of one repair: a bridging re-planner spends it across all its bridges. [-]
+  int max_iterations = 2000;
   double goal_bias = 0.15;    //!< goal bias while repairing: high, so the repair heads for the machine
   //! When the first plan hits its cap, keep its tree and go on as a repair (thesis §1.12).
   bool dual_phase = true;
@@ -23,6 +24,9 @@ struct ReplanSettings {
 struct ReplanStats {
   int repairs = 0;             //!< replan() calls
   int iterations = 0;          //!< of the query now running or last finished
+  //! Of the last repair in all: summed over its bridges (Con-Con-Mod, axis-connect), its regrowth
+  //! (DRRT). At most ReplanSettings::max_iterations for a bridging re-planner.
+  int repair_iterations = 0;
   int tree_nodes = 0;          //!< nodes now held (all trees)
   int invalidated_nodes = 0;   //!< removed by the last repair (DRRT: trimmed; Con-Con-Mod: dropped path nodes)
   int bridge_attempts = 0;     //!< Con-Con-Mod: bridges tried by the last repair
