@@ -205,6 +205,8 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       safety_world_(planning::build_world(scenario_, *model_)),
       problem_(planning::planning_problem(scenario_, *model_, *plan_world_)),
       replanner_(planning::make_replanner(config.replanner)),
+      spare_problem_(problem_),
+      spare_(planning::make_replanner(config.replanner)),
       escape_world_(planning_world(scenario_, *model_, config_.escape_margin_m, 0.0)),
       escape_problem_(planning::planning_problem(scenario_, *model_, *escape_world_)),
       escape_(planning::make_replanner(config.replanner)),
@@ -233,6 +235,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   if (config.shorten_chunks_per_cycle < 1) throw std::invalid_argument("controller: shorten_chunks_per_cycle must be >= 1");
   if (config.max_path_waypoints < 2) throw std::invalid_argument("controller: max_path_waypoints must be >= 2");
   if (!(config.retreat_floor_tolerance_m >= 0.0)) throw std::invalid_argument("controller: retreat_floor_tolerance_m must be >= 0");
+  if (!(config.repair_detour_ratio >= 1.0)) throw std::invalid_argument("controller: repair_detour_ratio must be >= 1");
   if (!(config.acceleration_lead_s >= 0.0 && config.acceleration_lead_s <= 1.0)) {
     throw std::invalid_argument("controller: acceleration_lead_s must be in [0, 1] s");
   }
@@ -271,6 +274,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
   replan_settings_.goal_bias = scenario_.planner.replan_goal_bias;
   // Sizes every buffer of the re-planner now, so that the goal request in the loop does not.
   (void)replanner_->reset(problem_, replan_settings_);
+  (void)spare_->reset(spare_problem_, replan_settings_);
   // An escape is planned from scratch round an obstacle parked next to the machine: a harder query
   // than the first plan, with the machine at rest meanwhile, so it may take longer.
   escape_problem_.max_iterations = std::max(escape_problem_.max_iterations, config.escape_max_iterations);
@@ -552,17 +556,26 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
     path_taken_ = false;
     shortening_ = false;
     repairing_ = false;
+    planned_afresh_ = false;
+    start_blocked_ = false;
+    comparing_ = false;
     active_ = replanner_.get();
     problem_.start = q_wrapped_;
     problem_.goal = goal_;
     planner_status_ = active_->reset(problem_, replan_settings_);
     ++stats_.plans;
+    // A worker or a parked truck within the margin of the stand: the same escape as after a stop.
+    if (planner_status_ == PlannerStatus::InvalidStart && plan_world_->hits_dynamic(q_wrapped_)) plan_escape();
+    planner_status_ = goal_refusal(planner_status_);
   } else if (out.plan_request == guidance::PlanRequest::Replan) {
     following_ = false;
     replan_pending_ = true;
     retreat_searching_ = false;
     shortening_ = false;
     repairing_ = true;
+    planned_afresh_ = false;
+    start_blocked_ = false;
+    comparing_ = false;
     planner_status_ = PlannerStatus::Running;
   }
   if (out.state != guidance::SupervisorState::Replanning) {
@@ -585,27 +598,10 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
     retreat_prefix_ = false;
     path_taken_ = false;
     const int next = static_cast<int>(std::min(planner_target, planner_size > 0 ? planner_size - 1 : 0));
-    planner_status_ = active_->replan(q_wrapped_, std::max(next, 1));
+    planner_status_ = active_->replan(q_wrapped_, std::max(next, 1), true);
     ++stats_.replans;
-    if (planner_status_ == PlannerStatus::InvalidStart) {
-      // An obstacle stopped within the margin the planner keeps from moving obstacles: plan anew
-      // in the world that keeps a smaller margin, still beyond the stop check's stop margin.
-      active_ = escape_.get();
-      escape_problem_.start = q_wrapped_;
-      escape_problem_.goal = goal_;
-      planner_status_ = active_->reset(escape_problem_, escape_settings_);
-      ++stats_.escapes;
-    }
-    if (planner_status_ == PlannerStatus::InvalidStart) {
-      // Too near even for the escape world: look for a single-joint move away first.
-      retreat_from_ = q_wrapped_;
-      if (retreat_->begin(q_wrapped_) == planning::RetreatSearch::Status::Running) {
-        retreat_searching_ = true;
-        planner_status_ = PlannerStatus::Running;
-      } else {
-        ++stats_.retreats_in_contact;
-      }
-    }
+    // An obstacle stopped within the margin the planner keeps from moving obstacles.
+    if (planner_status_ == PlannerStatus::InvalidStart) plan_escape();
   }
   const bool planning = out.state == guidance::SupervisorState::Planning || out.state == guidance::SupervisorState::Replanning;
   if (planning && !replan_pending_ && planner_status_ == PlannerStatus::Running) {
@@ -618,7 +614,7 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
         ++stats_.retreats;
         escape_problem_.start = retreat_->target();
         path_taken_ = false;
-        planner_status_ = active_->reset(escape_problem_, escape_settings_);
+        planner_status_ = goal_refusal(active_->reset(escape_problem_, escape_settings_));
       } else if (rs != planning::RetreatSearch::Status::Running) {
         retreat_searching_ = false;
         ++stats_.retreats_refused;
@@ -632,12 +628,91 @@ void Controller::handle_plan_request(const guidance::SupervisorOutput& out) noex
         if (removed != 0) ++stats_.paths_shortened;
         stats_.waypoints_removed += removed;
       }
+    } else if (comparing_) {
+      if (spare_->step(config_.plan_iterations_per_cycle) != PlannerStatus::Running) planner_status_ = PlannerStatus::Solved;
     } else {
       planner_status_ = active_->step(active_ == escape_.get() ? config_.escape_iterations_per_cycle : config_.plan_iterations_per_cycle);
+      if (repairing_ && !planned_afresh_ && !retreat_prefix_ &&
+          (planner_status_ == PlannerStatus::IterationLimit || planner_status_ == PlannerStatus::PoolExhausted)) {
+        // The repair spent its cap keeping the old path's far end: plan once from the stop
+        // instead, the query a new goal request would make, before the supervisor drops the goal.
+        planned_afresh_ = true;
+        ++stats_.repairs_planned_afresh;
+        planning::PlanningProblem& problem = active_ == escape_.get() ? escape_problem_ : problem_;
+        problem.start = q_wrapped_;
+        problem.goal = goal_;
+        planner_status_ = goal_refusal(active_->reset(problem, active_ == escape_.get() ? escape_settings_ : replan_settings_));
+      }
     }
     ++stats_.planner_cycles;
   }
-  if (planner_status_ == PlannerStatus::Solved && !path_taken_) take_path();
+  if (planner_status_ == PlannerStatus::Solved && !path_taken_ && detour_checked()) take_path();
+}
+
+double Controller::follow_time_s(const std::vector<planning::JointVector>& path) const noexcept {
+  double t_s = 0.0;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const planning::JointVector d = model_->difference(path[i], path[i + 1]);
+    for (int j = 0; j < n_; ++j) t_s += std::abs(d[j]) / follow_limits_[static_cast<std::size_t>(j)].max_velocity;
+  }
+  return t_s;
+}
+
+bool Controller::detour_checked() noexcept {
+  using planning::PlannerStatus;
+  if (comparing_) {
+    // The fresh plan has ended: the quicker path to follow is the one repairs go on from.
+    comparing_ = false;
+    if (spare_->step(0) == PlannerStatus::Solved && follow_time_s(spare_->path()) < repair_follow_s_) {
+      std::swap(replanner_, spare_);
+      active_ = replanner_.get();
+      ++stats_.detours_replaced;
+    }
+    return true;
+  }
+  if (!repairing_ || active_ != replanner_.get() || planned_afresh_ || retreat_prefix_) return true;
+  repair_follow_s_ = follow_time_s(active_->path());
+  planning::JointVector direct = model_->difference(q_wrapped_, goal_);
+  double direct_s = 0.0;
+  for (int j = 0; j < n_; ++j) direct_s += std::abs(direct[j]) / follow_limits_[static_cast<std::size_t>(j)].max_velocity;
+  if (repair_follow_s_ <= config_.repair_detour_ratio * direct_s) return true;
+  spare_problem_.start = q_wrapped_;
+  spare_problem_.goal = goal_;
+  ++stats_.detours_compared;
+  if (spare_->reset(spare_problem_, replan_settings_) != PlannerStatus::Running) {
+    planner_status_ = PlannerStatus::Solved;
+    comparing_ = true;
+    return detour_checked();
+  }
+  comparing_ = true;
+  planner_status_ = PlannerStatus::Running;
+  return false;
+}
+
+void Controller::plan_escape() noexcept {
+  using planning::PlannerStatus;
+  // Plan anew in the world that keeps a smaller margin, still beyond the stop check's stop margin.
+  start_blocked_ = true;
+  active_ = escape_.get();
+  escape_problem_.start = q_wrapped_;
+  escape_problem_.goal = goal_;
+  planner_status_ = goal_refusal(active_->reset(escape_problem_, escape_settings_));
+  ++stats_.escapes;
+  if (planner_status_ != PlannerStatus::InvalidStart) return;
+  // Too near even for the escape world: look for a single-joint move away first.
+  retreat_from_ = q_wrapped_;
+  if (retreat_->begin(q_wrapped_) == planning::RetreatSearch::Status::Running) {
+    retreat_searching_ = true;
+    planner_status_ = PlannerStatus::Running;
+  } else {
+    ++stats_.retreats_in_contact;
+  }
+}
+
+planning::PlannerStatus Controller::goal_refusal(planning::PlannerStatus status) noexcept {
+  if (status != planning::PlannerStatus::InvalidGoal) return status;
+  planning::CollisionWorld& world = active_ == escape_.get() ? *escape_world_ : *plan_world_;
+  return world.hits_dynamic(goal_) ? planning::PlannerStatus::GoalOccupied : status;
 }
 
 void Controller::take_path() noexcept {
@@ -840,6 +915,7 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
   in.commands.goal_request = commands.goal_request;
   in.commands.acknowledge = commands.acknowledge;
   in.planner.status = planner_status_;
+  in.planner.start_blocked = start_blocked_;
   in.progress.at_rest = at_rest_;
   in.progress.command_at_rest = limiter_.at_rest();
   update_settled();

@@ -188,6 +188,7 @@ const char* to_string(TransitionReason reason) noexcept {
     case TransitionReason::CutoffNotReady: return "CutoffNotReady";
     case TransitionReason::PoseDisagrees: return "PoseDisagrees";
     case TransitionReason::AngleDisagrees: return "AngleDisagrees";
+    case TransitionReason::PlanRetry: return "PlanRetry";
   }
   return "unknown";
 }
@@ -340,6 +341,7 @@ void Supervisor::transition(SupervisorState to, TransitionReason reason, std::in
       write_detail(record.detail, planner_text(static_cast<PlannerStatus>(value)), -1);
       break;
     case TransitionReason::ReplanRetry:
+    case TransitionReason::PlanRetry:
       write_detail(record.detail, "retry", value);
       break;
     default:
@@ -457,8 +459,13 @@ void Supervisor::step_state(const SupervisorInputs& in, SupervisorOutput& out) n
       if (retry_pending_ && now >= next_retry_us_) {
         if (retries_done_ < config_.max_replan_retries) {
           ++retries_done_;
-          out.plan_request = PlanRequest::Replan;
-          transition(SupervisorState::Replanning, TransitionReason::ReplanRetry, retries_done_, now, out);
+          if (retry_first_plan_) {
+            out.plan_request = PlanRequest::Plan;
+            transition(SupervisorState::Planning, TransitionReason::PlanRetry, retries_done_, now, out);
+          } else {
+            out.plan_request = PlanRequest::Replan;
+            transition(SupervisorState::Replanning, TransitionReason::ReplanRetry, retries_done_, now, out);
+          }
         } else {
           retry_pending_ = false;
           transition(SupervisorState::Hold, TransitionReason::RetryLimitReached, retries_done_, now, out);
@@ -480,10 +487,12 @@ void Supervisor::step_state(const SupervisorInputs& in, SupervisorOutput& out) n
         retries_done_ = 0;
         transition(SupervisorState::Executing, repair ? TransitionReason::ReplanSolved : TransitionReason::PlanSolved,
                    -1, now, out);
-      } else if (repair && (planner == PlannerStatus::GoalOccupied || planner == PlannerStatus::InvalidStart)) {
+      } else if (planner == PlannerStatus::GoalOccupied ||
+                 (planner == PlannerStatus::InvalidStart && (repair || in.planner.start_blocked))) {
         // The obstacle may move off the goal, or away from where the machine stopped: hold at
         // rest and ask again later.
         retry_pending_ = true;
+        retry_first_plan_ = !repair;
         next_retry_us_ = now + config_.replan_retry_interval_us;
         transition(SupervisorState::Hold,
                    planner == PlannerStatus::GoalOccupied ? TransitionReason::GoalOccupied : TransitionReason::StartBlocked,

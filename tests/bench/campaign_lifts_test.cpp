@@ -56,3 +56,30 @@ TEST_CASE("campaign lifts 31, 304, 315, 408, 554, 663, 733, 742, 823: the undist
     CHECK(rec.twin.least_clearance_m > 0.05);
   }
 }
+
+TEST_CASE("campaign lifts 754, 865, 96: a worker at the stand or on the goal is waited for, a long detour is planned afresh", "[bench][campaign]") {
+  // 754 and 865: a worker stood within the planning margin of the start or of the goal when the
+  // goal came, and the first plan was refused; the supervisor used to drop the goal. 96: crane 2
+  // swung across the rest of the tower crane's route and stood there; the repair kept the old
+  // path's far end by a detour that did not end within the campaign's time limit.
+  CampaignOptions options;
+  options.scenarios_dir = std::string(MGC_SOURCE_DIR) + "/scenarios";
+  options.threads = 1;
+  options.progress = false;
+  const auto has = [](const std::string& text, const char* what) { return text.find(what) != std::string::npos; };
+  for (const int lift : {754, 865, 96}) {
+    const LiftRecord rec = run_campaign_lift(options, lift);
+    INFO(lift_record_text(rec));
+    CHECK(rec.run.completed);
+    if (lift == 754) CHECK(has(rec.run.transitions, "HOLD (StartBlocked"));
+    if (lift == 865) CHECK(has(rec.run.transitions, "HOLD (GoalOccupied"));
+    if (lift != 96) CHECK(has(rec.run.transitions, "PLANNING (PlanRetry 1)"));
+    // Judged in the true state. A contact is only the worker walking into the machine at rest.
+    CHECK(rec.run.samples_chart_exceeded == 0);
+    CHECK(rec.run.samples_below_ground == 0);
+    if (rec.run.contact_s == rec.run.contact_s) {
+      CHECK(rec.run.contact_machine_at_rest);
+      CHECK(rec.run.contact_intruder_moving);
+    }
+  }
+}

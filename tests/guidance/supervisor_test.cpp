@@ -215,6 +215,19 @@ TEST_CASE("every transition of the table, with its reason, value and detail", "[
       {"plan invalid goal", SupervisorState::Planning, planner(PlannerStatus::InvalidGoal), 0, SupervisorState::Hold,
        TransitionReason::PlanFailed, PlanRequest::None, static_cast<std::int32_t>(PlannerStatus::InvalidGoal),
        "InvalidGoal"},
+      {"plan invalid start", SupervisorState::Planning, planner(PlannerStatus::InvalidStart), 0, SupervisorState::Hold,
+       TransitionReason::PlanFailed, PlanRequest::None, static_cast<std::int32_t>(PlannerStatus::InvalidStart),
+       "InvalidStart"},
+      {"plan start blocked by an obstacle", SupervisorState::Planning,
+       [](SupervisorInputs& in) {
+         in.planner.status = PlannerStatus::InvalidStart;
+         in.planner.start_blocked = true;
+       },
+       0, SupervisorState::Hold, TransitionReason::StartBlocked, PlanRequest::None,
+       static_cast<std::int32_t>(PlannerStatus::InvalidStart), "InvalidStart"},
+      {"plan goal occupied", SupervisorState::Planning, planner(PlannerStatus::GoalOccupied), 0, SupervisorState::Hold,
+       TransitionReason::GoalOccupied, PlanRequest::None, static_cast<std::int32_t>(PlannerStatus::GoalOccupied),
+       "GoalOccupied"},
       {"plan timeout", SupervisorState::Planning, planner(PlannerStatus::Running), config.plan_timeout_us,
        SupervisorState::Hold, TransitionReason::PlanTimeout, PlanRequest::None, -1, ""},
       {"stop zone", SupervisorState::Executing, safety_stop(StopCheckStatus::Stop), 0, SupervisorState::Stopping,
@@ -1008,6 +1021,34 @@ TEST_CASE("GoalOccupied then solved: the retry counter starts afresh", "[unit]")
   CHECK(out.reason == TransitionReason::ReplanSolved);
   CHECK(m.sup.retries_done() == 0);
   CHECK_FALSE(m.sup.retry_pending());
+}
+
+TEST_CASE("a first plan refused for an obstacle is retried as a first plan", "[unit]") {
+  for (const bool goal_covered : {true, false}) {
+    CAPTURE(goal_covered);
+    Machine m;
+    drive_to(m, SupervisorState::Planning);
+    const auto refused = [goal_covered](SupervisorInputs& in) {
+      in.planner.status = goal_covered ? PlannerStatus::GoalOccupied : PlannerStatus::InvalidStart;
+      in.planner.start_blocked = !goal_covered;
+    };
+    SupervisorOutput out = m.step(refused);
+    REQUIRE(out.state == SupervisorState::Hold);
+    CHECK(out.reason == (goal_covered ? TransitionReason::GoalOccupied : TransitionReason::StartBlocked));
+    CHECK(m.sup.retry_pending());
+    out = m.step_for(test_config().replan_retry_interval_us);
+    CHECK(out.state == SupervisorState::Planning);
+    CHECK(out.reason == TransitionReason::PlanRetry);
+    CHECK(out.plan_request == PlanRequest::Plan);
+    CHECK(m.sup.retries_done() == 1);
+    out = m.step([](SupervisorInputs& in) { in.planner.status = PlannerStatus::Solved; });
+    CHECK(out.state == SupervisorState::Executing);
+    CHECK(out.reason == TransitionReason::PlanSolved);
+    CHECK(m.sup.retries_done() == 0);
+    const auto log = m.drain();
+    REQUIRE(log.size() >= 2);
+    CHECK(detail(log[log.size() - 2]) == "retry 1");
+  }
 }
 
 TEST_CASE("a new goal while a retry is pending replaces it", "[unit]") {

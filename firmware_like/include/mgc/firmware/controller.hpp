@@ -79,6 +79,10 @@ struct ControllerConfig {
   double envelope_planning_margin_m = 1.25;
   //! The same for an escape plan, above half the escape world's dilation. [m]
   double envelope_escape_margin_m = 0.5;
+  //! A repair whose path takes more than this many times the direct one-joint-at-a-time move from
+  //! the stop to the goal (each joint's travel at its following speed, one after the other) is
+  //! compared with a fresh plan from the stop; the quicker of the two is followed. [-]
+  double repair_detour_ratio = 2.0;
   //! Iteration cap of an escape plan and of its repairs (at least the scenario's caps). [-]
   int escape_max_iterations = 20000;
   //! Planner iterations per cycle of an escape: its hard query makes an iteration up to 20 times
@@ -154,7 +158,10 @@ struct ControllerStats {
   std::uint64_t cycles = 0;
   int plans = 0;             //!< first plans started (goal requests accepted)
   int replans = 0;           //!< repairs started after a safety stop
-  int escapes = 0;           //!< repairs planned anew because an obstacle stopped within the planning margin
+  int escapes = 0;           //!< plans and repairs made in the escape world: an obstacle stood within the planning margin
+  int repairs_planned_afresh = 0;  //!< repairs that spent their iteration cap and were planned anew from the stop
+  int detours_compared = 0;   //!< repairs slow enough to follow that a fresh plan from the stop was made beside them
+  int detours_replaced = 0;   //!< of those, repairs the fresh plan replaced, being quicker to follow
   int retreats = 0;          //!< retreats found where not even the escape planner accepted the start
   int retreats_refused = 0;  //!< retreat searches that found no single-joint way out
   int retreats_in_contact = 0;  //!< retreats not searched: the machine touched an obstacle (the stop check's dilated bodies)
@@ -277,6 +284,17 @@ class Controller {
   //! One predicted pose of the approach warning's scan (machine at rest only).
   void predict_approach() noexcept;
   void handle_plan_request(const guidance::SupervisorOutput& out) noexcept;
+  //! The machine stands within the planning margin of a dynamic obstacle: plans in the escape
+  //! world, and where even that refuses the start, searches a one-joint retreat first.
+  void plan_escape() noexcept;
+  //! A goal the planner refused because a dynamic obstacle covers it is GoalOccupied: time may
+  //! clear it.
+  [[nodiscard]] planning::PlannerStatus goal_refusal(planning::PlannerStatus status) noexcept;
+  //! Following time of a path one joint at a time at the follower's speeds, without ramps. [s]
+  [[nodiscard]] double follow_time_s(const std::vector<planning::JointVector>& path) const noexcept;
+  //! A repair just solved: starts the fresh plan to compare it with if it is a long detour, and
+  //! takes the quicker path once that plan ends. Returns whether the repair's path may be taken.
+  [[nodiscard]] bool detour_checked() noexcept;
   //! Every tracked obstacle's speed is measured and near its floor.
   [[nodiscard]] bool obstacles_settled() const noexcept;
   void load_path() noexcept;
@@ -316,6 +334,14 @@ class Controller {
   planning::PlanningProblem problem_{};
   planning::ReplanSettings replan_settings_{};
   std::unique_ptr<planning::Replanner> replanner_;
+  //! A repair that keeps the old path's far end can make a long detour (a crane parked across the
+  //! rest of the route): the same planner plans afresh from the stop in this one, and whichever
+  //! path is quicker to follow becomes replanner_. Its problem differs from problem_ only in the
+  //! start, which the re-planners copy at reset.
+  planning::PlanningProblem spare_problem_{};
+  std::unique_ptr<planning::Replanner> spare_;
+  bool comparing_ = false;           //!< spare_ is planning afresh to compare with a long repair
+  double repair_follow_s_ = 0.0;     //!< the long repair's estimated following time [s]
   //! For a machine stopped within the margins of plan_world_: the same planner in a world that
   //! keeps escape_margin_m, the obstacles at their own size.
   std::unique_ptr<planning::CollisionWorld> escape_world_;
@@ -332,6 +358,9 @@ class Controller {
   bool path_taken_ = false;  //!< the planner's current solution is in path_ (or being shortened)
   bool shortening_ = false;
   bool repairing_ = false;  //!< the planner's query is a repair or an escape, not a goal's first plan
+  bool planned_afresh_ = false;  //!< the current repair spent its cap and was planned anew
+  //! The current query was refused or escaped because a dynamic obstacle stood at the start.
+  bool start_blocked_ = false;
   planning::JointVector retreat_from_;
   //! Least clearance, not lessened by any reach, where the machine started the escape it follows. [m]
   double escape_start_m_ = 0.0;

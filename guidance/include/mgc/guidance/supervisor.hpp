@@ -48,9 +48,9 @@ enum class TransitionReason : std::uint8_t {
   AtRestReplan,          //!< STOPPING -> REPLANNING: at rest after a safety stop
   ReplanSolved,          //!< REPLANNING -> EXECUTING
   ReplanFailed,          //!< REPLANNING -> HOLD (value: the PlannerStatus), goal dropped
-  GoalOccupied,          //!< REPLANNING -> HOLD: an obstacle covers the goal; a retry is scheduled
-  ReplanRetry,           //!< HOLD -> REPLANNING: scheduled retry after GoalOccupied
-  RetryLimitReached,     //!< HOLD -> HOLD: the retries after GoalOccupied ran out, goal dropped
+  GoalOccupied,          //!< PLANNING/REPLANNING -> HOLD: an obstacle covers the goal; a retry is scheduled
+  ReplanRetry,           //!< HOLD -> REPLANNING: scheduled retry of a repair after GoalOccupied or StartBlocked
+  RetryLimitReached,     //!< HOLD -> HOLD: the retries ran out, goal dropped
   StopTimeout,           //!< STOPPING -> FAULT: not at rest within stop_timeout_us
   OperatorStop,          //!< any state but FAULT -> ESTOP
   OperatorAcknowledge,   //!< FAULT -> INIT, ESTOP -> HOLD
@@ -68,6 +68,7 @@ enum class TransitionReason : std::uint8_t {
   WatchdogTripped,       //!< the cyclic executive's watchdog latched (repeated deadline misses)
   //! REPLANNING -> HOLD: the repair refused where the machine stopped (InvalidStart), e.g. inside
   //! the margin the planner keeps from a moving obstacle; a retry is scheduled as for GoalOccupied.
+  //! PLANNING -> HOLD the same, for a first plan whose start a dynamic obstacle blocks.
   StartBlocked,
   //! The valve node's heartbeat says Operational, but its status frames stopped (or the bus holds
   //! them back): whether it still follows the commands is unknown. A loss of sensing.
@@ -88,6 +89,9 @@ enum class TransitionReason : std::uint8_t {
   //! The boom inclinometer disagrees with the boom's encoder (InclinometerCheck): one of the two
   //! is stuck or lies (value: the joint).
   AngleDisagrees,
+  //! HOLD -> PLANNING: scheduled retry of a first plan after GoalOccupied or StartBlocked (value:
+  //! the retry number).
+  PlanRetry,
 };
 [[nodiscard]] const char* to_string(TransitionReason reason) noexcept;
 
@@ -151,6 +155,9 @@ struct OperatorCommands {
 //! The planner's state for the query the loop ran this cycle (first plan or repair).
 struct PlannerInputs {
   planning::PlannerStatus status = planning::PlannerStatus::Running;
+  //! A dynamic obstacle stood within the planner's margin of the machine when the query began: an
+  //! InvalidStart of a first plan is then one that time may cure, as after a safety stop.
+  bool start_blocked = false;
 };
 
 //! Where the machine and its command stand.
@@ -306,6 +313,7 @@ class Supervisor {
   bool nmt_started_ = false;
   std::int64_t last_nmt_start_us_ = 0;
   bool retry_pending_ = false;
+  bool retry_first_plan_ = false;  //!< the pending retry is of a first plan, not of a repair
   int retries_done_ = 0;
   std::int64_t next_retry_us_ = 0;
   std::uint64_t next_sequence_ = 0;
