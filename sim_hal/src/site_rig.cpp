@@ -125,14 +125,18 @@ void SiteRig::run_until(double t_s, bool stop_when_done) {
 void SiteRig::cycle(std::size_t i, const hal::SensorSnapshot& s) {
   SiteRigMember& m = members_[i];
   // Messages due by this cycle reach the member's loop now, as the I/O thread hands them over.
+  const std::int64_t receive_from_ns = config_.clock_ns ? config_.clock_ns() : 0;
+  m.last_received = 0;
   for (std::size_t k = 0; k < pending_.size();) {
     if (pending_[k].receiver == i && pending_[k].deliver_us <= s.t_us) {
       deliver(i, pending_[k].plan, pending_[k].bytes);
+      ++m.last_received;
       pending_.erase(pending_.begin() + static_cast<std::ptrdiff_t>(k));
     } else {
       ++k;
     }
   }
+  if (config_.clock_ns) m.last_receive_ns = config_.clock_ns() - receive_from_ns;
   firmware::ControllerCommands commands;
   const double now_s = static_cast<double>(s.t_us - SteppedRig::kSimZeroUs) * 1e-6;
   if (!m.goal_sent && m.lift_start_s >= 0.0 && now_s >= m.lift_start_s &&
@@ -141,7 +145,9 @@ void SiteRig::cycle(std::size_t i, const hal::SensorSnapshot& s) {
     m.goal_sent = true;
   }
   const long before = config_.allocation_count ? config_.allocation_count() : 0;
+  const std::int64_t step_from_ns = config_.clock_ns ? config_.clock_ns() : 0;
   m.out = m.controller->step(s, m.rig->cycle_us, commands, false, m.inputs);
+  if (config_.clock_ns) m.last_step_ns = config_.clock_ns() - step_from_ns;
   if (config_.allocation_count) m.step_allocations += config_.allocation_count() - before;
   ++m.cycles;
   if (m.out.start_nodes) (void)m.rig->hal->send_nmt(hal::canopen::NmtCommand::Start, 0);

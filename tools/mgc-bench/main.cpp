@@ -27,6 +27,7 @@
 #include "planning_bench.hpp"
 #include "safety_bench.hpp"
 #include "site_bench.hpp"
+#include "site_scale_bench.hpp"
 #include "sites_bench.hpp"
 #include "trajectory_bench.hpp"
 #include "replan_bench.hpp"
@@ -69,8 +70,9 @@ int main(int argc, char** argv) {
   mgc::bench::LoopBenchOptions loop;
   mgc::bench::OmplOptions ompl;
   mgc::bench::CampaignOptions campaign;
+  mgc::bench::SiteScaleOptions scale;
   for (const auto& [name, run] : planning_suites()) names += std::string(names.empty() ? "" : ", ") + name;
-  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), campaign (randomized lifts judged in the true state), site (two cranes crossing, stepped time), all (thesis, zhang, langari, sites, kim, campaign, site), bus (fieldbus), trajectory, safety or loop (control cycle)");
+  app.add_option("--suite", suite_name, "suite to run: " + names + ", kim (dual crane), campaign (randomized lifts judged in the true state), site (two cranes crossing, stepped time), site-scale (2 to 16 machines on a generated site, measured), all (thesis, zhang, langari, sites, kim, campaign, site), bus (fieldbus), trajectory, safety or loop (control cycle)");
   app.add_option("--runs", runs, "runs (seeds) per case; default: the paper's count (thesis, langari 50; zhang 51; kim 100); sites: seeds per site (6)")
       ->check(mgc::tools::positive_number());
   app.add_option("--seed", first_seed, "first seed; runs use seed, seed + 1, ...");
@@ -96,6 +98,11 @@ int main(int argc, char** argv) {
       ->check(mgc::tools::nonnegative_number());
   app.add_option("--campaign-threads", campaign.threads, "campaign suite: lifts run on this many threads (the results do not depend on it)")
       ->check(mgc::tools::positive_number());
+  app.add_option("--scale-machines", scale.machines, "site-scale suite: the site sizes, comma-separated (default 2,4,8,16)")
+      ->delimiter(',')
+      ->check(CLI::Range(2, 16));
+  app.add_option("--scale-seconds", scale.sim_s, "site-scale suite: simulated seconds per site (default 60)")
+      ->check(mgc::tools::positive_number());
   app.add_option("--ompl-time-limit", ompl.time_limit_s, "OMPL: seconds per query before it counts as a failure")
       ->check(mgc::tools::positive_number());
   app.add_option("--ompl-range", ompl.range_steps, "OMPL RRT/RRTConnect extension length in steps; 0: our extend step")
@@ -113,9 +120,10 @@ int main(int argc, char** argv) {
     if ((suite_name == "all" && suite.first != "replan") || suite_name == suite.first) chosen.push_back(suite);
   }
   const bool other_suite = suite_name == "bus" || suite_name == "trajectory" || suite_name == "safety" ||
-                           suite_name == "loop" || suite_name == "kim" || suite_name == "campaign" || suite_name == "site";
+                           suite_name == "loop" || suite_name == "kim" || suite_name == "campaign" || suite_name == "site" ||
+                           suite_name == "site-scale";
   if (chosen.empty() && !other_suite) {
-    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, campaign, all, site, bus, trajectory, safety, loop; got '%s'\n",
+    std::fprintf(stderr, "mgc-bench: --suite: expected one of %s, kim, campaign, all, site, site-scale, bus, trajectory, safety, loop; got '%s'\n",
                  names.c_str(), suite_name.c_str());
     return 2;
   }
@@ -163,6 +171,13 @@ int main(int argc, char** argv) {
     if (suite_name == "campaign") return mgc::bench::run_campaign_suite(campaign);
     const mgc::bench::SiteBenchOptions site_options{scenarios_dir, out_dir, command};
     if (suite_name == "site") return mgc::bench::run_site_suite(site_options);
+    if (suite_name == "site-scale") {
+      scale.scenarios_dir = scenarios_dir;
+      scale.out_dir = out_dir;
+      scale.command = command;
+      scale.seed = first_seed;
+      return mgc::bench::run_site_scale_suite(scale);
+    }
     // OMPL's global seed takes effect only before its first random generator exists: set it now.
     if (!mgc::bench::seed_ompl(static_cast<std::uint32_t>(first_seed))) {
       std::fprintf(stderr, "mgc-bench: OMPL refused the global seed; BIT* runs will not repeat\n");

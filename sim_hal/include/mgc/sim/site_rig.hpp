@@ -54,6 +54,10 @@ struct SiteRigConfig {
   //! When set, the rig reads it before and after each Controller::step and adds the difference to
   //! the member's step_allocations (the tests' allocation counter).
   std::function<long()> allocation_count;
+  //! When set, the rig reads it around each member's Controller::step and around the checks of the
+  //! messages delivered to the member in a cycle, and keeps both durations in the member
+  //! (last_step_ns, last_receive_ns): the benchmarks' wall clock. [ns]
+  std::function<std::int64_t()> clock_ns;
 };
 
 //! One machine of the site on the rig.
@@ -80,6 +84,9 @@ struct SiteRigMember {
   std::uint64_t site_alert_cycles = 0;  //!< cycles with any site alert
   std::uint64_t cycles = 0;             //!< steps of its controller
   long step_allocations = 0;            //!< inside Controller::step, when SiteRigConfig::allocation_count is set
+  std::int64_t last_step_ns = 0;        //!< its last Controller::step, when SiteRigConfig::clock_ns is set [ns]
+  std::int64_t last_receive_ns = 0;     //!< checking the messages delivered in its last cycle, likewise [ns]
+  int last_received = 0;                //!< messages delivered (checked) in its last cycle
   std::string log;  //!< supervisor transitions, one a line
 };
 
