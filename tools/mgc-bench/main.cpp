@@ -143,6 +143,10 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if ((app.count("--scale-machines") > 0 || app.count("--scale-seconds") > 0) && suite_name != "site-scale") {
+    std::fprintf(stderr, "mgc-bench: --scale-machines, --scale-seconds: expected --suite site-scale, got --suite '%s'\n", suite_name.c_str());
+    return 2;
+  }
   if (campaign.lift >= 0 && suite_name != "campaign") {
     std::fprintf(stderr, "mgc-bench: --lift: expected --suite campaign, got --suite '%s'\n", suite_name.c_str());
     return 2;
