@@ -11,8 +11,9 @@
 namespace mgc::bench {
 
 //! Distance between neighbouring grid nodes: a TMS870's load (at 12.9 m from its swing axis, the
-//! lifts' 20 m boom at 50 deg) reaches into its four neighbours' swing circles, not its diagonal
-//! ones, and no two carriers (8.6 m from the axis at most) can touch. [m]
+//! lifts' 20 m boom at 50 deg) reaches into its four neighbours' swing circles and, with the
+//! jitter, barely into its diagonal ones, and no two carriers (8.6 m from the axis at most) can
+//! touch. [m]
 inline constexpr double kScaleSpacing_m = 22.0;
 //! Each base is moved off its grid node by up to this much in x and y. [m]
 inline constexpr double kScaleJitter_m = 1.0;
@@ -38,8 +39,9 @@ struct ScaleSite {
 //! elsewhere. Priorities 1..N in a drawn order. Each machine's one lift turns its load by 60-120
 //! deg either way: the TMS870's at 0.5 m above the ground, 12.9 m out; the tower crane's at a
 //! hook height of 30 m (an upper floor), above every TMS870 boom, at a radius of 20-40 m. A lift
-//! is drawn again while its start or goal is invalid in its own lift's world or comes within
-//! kScaleEndClearance_m of another machine at its start or goal. The file is loaded with the
+//! is drawn again while its start or goal is invalid in its own lift's world; of two machines
+//! within kScaleEndClearance_m at their starts or goals, the later one's (or the earlier one's,
+//! when it was drawn fewer times: its end may stand on the later one's carrier). The file is loaded with the
 //! ordinary site loader before it is returned. The same machines and seed give the same file,
 //! byte for byte. Throws std::invalid_argument for machines outside 1..16, planning::io::InputError
 //! when a machine file does not load, std::runtime_error when no draw fits or a file cannot be
