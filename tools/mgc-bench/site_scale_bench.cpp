@@ -276,6 +276,26 @@ int run_site_scale_suite(const SiteScaleOptions& options) {
     md += fmt("| %d (%d) | %s | %s | %s | %s | %.2f / %.2f | %s |\n", r.machines, r.tower_cranes, t3(all).c_str(), t3(mob).c_str(),
               ratio.c_str(), added.c_str(), rules.p50, rules.p99, r.verify_us.empty() ? "-" : fmt("%.1f / %.1f", verify.p50, verify.p99).c_str());
   }
+  // A least-squares line through every size, the lone machine included: the TMS870 members'
+  // percentile against the number of other machines, less sensitive to one size's tail.
+  const auto slope = [&runs](double Triple::*field) {
+    double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
+    double count = 0.0;
+    for (const SizeRun& r : runs) {
+      const double x = r.machines - 1;
+      const double y = triple(r.step_mobile_us).*field;
+      sx += x;
+      sy += y;
+      sxx += x * x;
+      sxy += x * y;
+      count += 1.0;
+    }
+    const double d = count * sxx - sx * sx;
+    return d > 0.0 ? (count * sxy - sx * sy) / d : std::nan("");
+  };
+  md += fmt("\nA least-squares line through the sizes (TMS870 members against the other machines): p50 %.1f, p95 %.1f, p99 %.1f µs "
+            "per other machine.\n",
+            slope(&Triple::p50), slope(&Triple::p95), slope(&Triple::p99));
   md += fmt("\nTraffic: states %zu bytes encoded (%zu bytes of UDP payload), plans %zu (%zu), as sent over the run.\n\n", state_bytes,
             state_udp, plan_bytes, plan_udp);
   md += "| Machines | States / s per machine | Plans / s per machine | UDP payload per machine [kB/s] | Site total [msgs/s] | Site total "
