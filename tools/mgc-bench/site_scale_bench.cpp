@@ -298,16 +298,18 @@ int run_site_scale_suite(const SiteScaleOptions& options) {
             slope(&Triple::p50), slope(&Triple::p95), slope(&Triple::p99));
   md += fmt("\nTraffic: states %zu bytes encoded (%zu bytes of UDP payload), plans %zu (%zu), as sent over the run.\n\n", state_bytes,
             state_udp, plan_bytes, plan_udp);
-  md += "| Machines | States / s per machine | Plans / s per machine | UDP payload per machine [kB/s] | Site total [msgs/s] | Site total "
-        "[kB/s] | Received and checked per machine [msgs/s] |\n";
-  md += "|---|---|---|---|---|---|---|\n";
+  md += "| Machines | States / s, plans / s per machine | UDP payload per machine: states, plans, both [kB/s] | Site: states / s, "
+        "plans / s | Site UDP payload: states, plans, both [kB/s] | Received and checked per machine [msgs/s] |\n";
+  md += "|---|---|---|---|---|---|\n";
   for (const SizeRun& r : runs) {
     const double m = r.machines;
     const double states_s = static_cast<double>(r.states_sent) / r.sim_s;
     const double plans_s = static_cast<double>(r.plans_sent) / r.sim_s;
-    const double bytes_s = states_s * static_cast<double>(state_udp) + plans_s * static_cast<double>(plan_udp);
-    md += fmt("| %d | %.2f | %.2f | %.2f | %.1f | %.1f | %.1f |\n", r.machines, states_s / m, plans_s / m, bytes_s / m * 1e-3,
-              states_s + plans_s, bytes_s * 1e-3, static_cast<double>(r.messages_delivered) / r.sim_s / m);
+    const double state_kb_s = states_s * static_cast<double>(state_udp) * 1e-3;
+    const double plan_kb_s = plans_s * static_cast<double>(plan_udp) * 1e-3;
+    md += fmt("| %d | %.2f, %.2f | %.2f, %.2f, %.2f | %.1f, %.1f | %.1f, %.1f, %.1f | %.1f |\n", r.machines, states_s / m, plans_s / m,
+              state_kb_s / m, plan_kb_s / m, (state_kb_s + plan_kb_s) / m, states_s, plans_s, state_kb_s, plan_kb_s,
+              state_kb_s + plan_kb_s, static_cast<double>(r.messages_delivered) / r.sim_s / m);
   }
   md += "\nPlan changes: a new plan id published, and each other member's prediction of that machine taking it up (its "
         "decision's prediction `Plan` with that id), in the receiver's cycles after the cycle it was delivered in (0: taken "
