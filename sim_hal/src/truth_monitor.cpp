@@ -227,13 +227,14 @@ std::string TruthMonitor::summary_line() const {
     }
     return "nothing near";
   };
-  std::string line = "least clearance " + fixed2(m.least_clearance.distance_m) + " m at " + fixed2(m.least_clearance_t_s) +
-                     " s (" + what(m.least_clearance) + "), of the moving bodies " + fixed2(m.least_moving.distance_m) +
-                     " m at " + fixed2(m.least_moving_t_s) + " s (" + what(m.least_moving) + ")";
-  if (num_dynamic_ > 0) {
-    line += "; to the dynamic obstacles " + fixed2(m.least_dynamic.distance_m) + " m at " + fixed2(m.least_dynamic_t_s) +
-            " s (" + what(m.least_dynamic) + ")";
-  }
+  // With nothing within the monitor's reach there is no distance to print, only that.
+  const auto least = [&](const planning::Clearance& c, double t_s) -> std::string {
+    if (c.with == planning::Contact::With::Nothing) return "nothing near";
+    return fixed2(c.distance_m) + " m at " + fixed2(t_s) + " s (" + what(c) + ")";
+  };
+  std::string line = "least clearance " + least(m.least_clearance, m.least_clearance_t_s) + ", of the moving bodies " +
+                     least(m.least_moving, m.least_moving_t_s);
+  if (num_dynamic_ > 0) line += "; to the dynamic obstacles " + least(m.least_dynamic, m.least_dynamic_t_s);
   line += "; " + std::to_string(m.samples_below_margin) + " of " + std::to_string(m.samples) +
           " samples below " + fixed2(config_.clearance_margin_m) + " m";
   if (envelope_) {
