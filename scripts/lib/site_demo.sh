@@ -54,6 +54,27 @@ site_demo() {
       "${mgc_rt[@]}" >"$dir/mgc-$id.txt" 2>&1 &
     mgc_pids+=($!)
   done
+  # Each machine's operator screen (docs/operator-display.md), read-only (no key: the operator
+  # stations below send the commands): its own feed, the other machine drawn from the verified
+  # site channel. A busy port costs only the screen.
+  local display_pids=() port
+  for id in "${ids[@]}"; do
+    port=$(( ${MGC_DEMO_DISPLAY_PORT:-8780} + id ))
+    "$bin/mgc-display" --site "$site" --machine-id "$id" --site-key "$dir/site.key" --site-lcm-url "$site_url" \
+      --lcm-url "$(feed_url "$id")" --port "$port" >"$dir/display-$id.txt" 2>&1 &
+    display_pids+=($!)
+  done
+  for id in "${ids[@]}"; do
+    for _ in $(seq 50); do
+      grep -q '^mgc-display: http' "$dir/display-$id.txt" && break
+      sleep 0.1
+    done
+    if grep -q '^mgc-display: http' "$dir/display-$id.txt"; then
+      echo "    machine $id's screen, live: $(head -1 "$dir/display-$id.txt" | sed 's/^mgc-display: \([^ ]*\).*/\1/')"
+    else
+      echo "    machine $id: no live screen: $(head -1 "$dir/display-$id.txt")"
+    fi
+  done
   # Each operator station requests its machine's lift once the controller is in HOLD and watches
   # it to its end, for at most 180 s (the TMS870's lift takes 83-88 s when it completes; one whose
   # repair went the long way, docs/site.md "Limits", took 4 minutes and more): the tower crane's
@@ -72,8 +93,8 @@ site_demo() {
   done
   kill -TERM "${mgc_pids[@]}" 2>/dev/null || true
   wait "${mgc_pids[@]}" 2>/dev/null || true
-  kill -TERM "$sim_pid" 2>/dev/null || true
-  wait "$sim_pid" 2>/dev/null || true
+  kill -TERM "$sim_pid" "${display_pids[@]}" 2>/dev/null || true
+  wait "$sim_pid" "${display_pids[@]}" 2>/dev/null || true
 
   for id in "${ids[@]}"; do
     echo "--- machine $id: mgc"
@@ -107,7 +128,7 @@ site_demo() {
     result=1
   fi
   echo "site: least true clearance between the machines: ${between:-none}"
-  echo "site: outputs in build/demo/site/ (mgc-N.txt, operator-N.txt, sim.txt)"
+  echo "site: outputs in build/demo/site/ (mgc-N.txt, operator-N.txt, display-N.txt, sim.txt)"
   return "$result"
 }
 

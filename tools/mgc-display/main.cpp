@@ -34,6 +34,8 @@
 #include "mgc/firmware/command_auth.hpp"
 #include "mgc/firmware/lcm_feed.hpp"
 #include "mgc/planning/io/input_error.hpp"
+#include "mgc/planning/io/site_loader.hpp"
+#include "mgc/planning/site.hpp"
 #include "mgc/tools/cli_checks.hpp"
 #include "playback.hpp"
 #include "scene.hpp"
@@ -203,7 +205,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--port", port, "TCP port of the page")->capture_default_str()->check(CLI::Range(1, 65535));
   app.add_option("--lcm-url", lcm_url, "LCM provider of the feed")->capture_default_str();
-  app.add_option("--scenario", scenario_file, "scenario file: the site's obstacles and the machine model to draw");
+  app.add_option("--scenario", scenario_file, "scenario file: the site's obstacles and the machine model to draw (with --site: the machine's first lift by default)");
   app.add_option("--key", key_file, "shared command key (32 raw bytes, mode 600): enables goal and acknowledge");
   app.add_option("--sender-id", sender_id, "this station's sender id on MGC_COMMAND")->capture_default_str();
   app.add_option("--log", log_file, "play a recorded LCM log (lcm-logger) instead of the live feed");
@@ -227,8 +229,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mgc-display: --site-key, --machine-id and --site-lcm-url need --site\n");
     return 2;
   }
-  if (!site_file.empty() && scenario_file.empty()) {
-    std::fprintf(stderr, "mgc-display: --site: needs --scenario (the site is drawn in its machine's views)\n");
+  if (!site_file.empty() && scenario_file.empty() && !machine_id) {
+    std::fprintf(stderr, "mgc-display: --site: needs --machine-id or --scenario (the site is drawn in its machine's views)\n");
     return 2;
   }
   if (!site_key_file.empty() && !machine_id) {
@@ -236,7 +238,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    if (!scenario_file.empty()) scene = std::make_unique<mgc::display::Scene>(scenario_file);
+    if (!scenario_file.empty()) {
+      scene = std::make_unique<mgc::display::Scene>(scenario_file);
+    } else if (!site_file.empty()) {
+      // The machine's first lift, as `mgc --site` plans it.
+      const mgc::planning::Site s = mgc::planning::io::load_site(site_file);
+      scene = std::make_unique<mgc::display::Scene>(
+          mgc::planning::lift_scenario(s, mgc::planning::io::site_machine_index(s, *machine_id), 0));
+    }
     if (!key_file.empty()) {
       if (const auto problem = key_file_problem(key_file)) {
         std::fprintf(stderr, "mgc-display: --key: %s\n", problem->c_str());
@@ -246,7 +255,7 @@ int main(int argc, char** argv) {
     }
     if (!log_file.empty()) playback = std::make_unique<mgc::display::Playback>(log_file);
   } catch (const mgc::planning::io::InputError& e) {
-    std::fprintf(stderr, "mgc-display: --scenario: %s\n", e.what());
+    std::fprintf(stderr, "mgc-display: %s: %s\n", scenario_file.empty() ? "--site" : "--scenario", e.what());
     return 2;
   } catch (const mgc::firmware::CommandKeyError& e) {
     std::fprintf(stderr, "mgc-display: --key: %s\n", e.what());

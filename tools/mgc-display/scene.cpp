@@ -26,6 +26,10 @@ Scene::Scene(const std::string& scenario_file) {
   tool_index_ = model_->key_point_index(model_->kind() == planning::MachineKind::Excavator ? "bucket_tip" : "hook");
 }
 
+Scene::Scene(planning::Scenario scenario) : scenario_(std::move(scenario)), model_(planning::build_model(scenario_)) {
+  tool_index_ = model_->key_point_index(model_->kind() == planning::MachineKind::Excavator ? "bucket_tip" : "hook");
+}
+
 std::string Scene::static_json() const {
   Json out;
   out.begin_object();

@@ -18,6 +18,8 @@ class Scene {
   //! Loads the scenario (planning::io::load_scenario) and builds its machine model. Throws
   //! planning::io::InputError with a one-line message on a bad file.
   explicit Scene(const std::string& scenario_file);
+  //! The scenario as loaded already (a site machine's lift: planning::lift_scenario).
+  explicit Scene(planning::Scenario scenario);
 
   [[nodiscard]] const planning::Scenario& scenario() const noexcept { return scenario_; }
   [[nodiscard]] const planning::MachineModel& model() const noexcept { return *model_; }

@@ -44,6 +44,10 @@ bool SiteView::on_state(const void* data, int size, std::int64_t now_us) {
   if (verifier_) {
     const firmware::SiteReason reason = verifier_->check_state_bytes(
         std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), static_cast<std::size_t>(size)), msg, realtime_us_());
+    if (reason == firmware::SiteReason::OwnMachine) {
+      ++own_echoes_;
+      return true;
+    }
     if (reason != firmware::SiteReason::Accepted) refusal = firmware::site_reason_name(reason);
   } else {
     // Unverified: only what the page needs to draw it at all is checked.
@@ -55,7 +59,9 @@ bool SiteView::on_state(const void* data, int size, std::int64_t now_us) {
     if (!member) {
       refusal = firmware::site_reason_name(firmware::SiteReason::UnknownMachine);
     } else if (member->own) {
-      refusal = firmware::site_reason_name(firmware::SiteReason::OwnMachine);
+      // Its own controller's states, which every member hears too: drawn from the feed instead.
+      ++own_echoes_;
+      return true;
     } else if (msg.num_joints != member->model->dof()) {
       refusal = firmware::site_reason_name(firmware::SiteReason::JointCount);
     } else {
@@ -87,6 +93,7 @@ void SiteView::write_json(Json& out, std::int64_t now_us) const {
   out.key("refused").begin_object();
   for (const auto& [reason, n] : refused_) out.key(reason).value(static_cast<long long>(n));
   out.end_object();
+  out.key("own_echoes").value(static_cast<long long>(own_echoes_));
   out.key("members").begin_array();
   planning::Kinematics k;
   for (const Member& m : members_) {

@@ -38,8 +38,9 @@ class SiteView {
   SiteView& operator=(const SiteView&) = delete;
 
   //! One MGC_SITE_STATE message received at now_us (monotonic). False when it is refused: it does
-  //! not decode, names no member of the site, the display's own machine, another joint count or
-  //! non-finite joints; with a key, whatever SiteVerifier refuses.
+  //! not decode, names no member of the site, another joint count or non-finite joints; with a
+  //! key, whatever SiteVerifier refuses. The display's own machine's states are counted as its
+  //! own echoes and not drawn (the feed draws that machine).
   bool on_state(const void* data, int size, std::int64_t now_us);
 
   //! The "site" object for the page: whether verified, and each member with its age and, once
@@ -71,6 +72,7 @@ class SiteView {
   mutable std::mutex mutex_;
   std::vector<Member> members_;
   std::map<std::string, std::int64_t> refused_;  //!< by reason
+  std::int64_t own_echoes_ = 0;  //!< states of the display's own machine: accepted, not drawn
 };
 
 }  // namespace mgc::display

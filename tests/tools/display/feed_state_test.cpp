@@ -455,8 +455,9 @@ TEST_CASE("the other machines of a site are drawn through their own models at th
   CHECK(contains(state.json(1'000'000 + stale_us, nullptr), "\"current\":true"));
   CHECK(contains(state.json(1'000'001 + stale_us, nullptr), "\"current\":false"));
 
-  // Refused and counted: the display's own machine, a machine the site lacks, another joint
-  // count, non-finite joints, bytes that are no state. None changes what is drawn.
+  // The display's own machine is drawn from its feed: its states on the site channel are its own
+  // echoes, counted apart and not drawn. Refused and counted: a machine the site lacks, another
+  // joint count, non-finite joints, bytes that are no state. None changes what is drawn.
   auto own = tower_state(2);
   own.machine_id = 1;
   feed(state, ch::kSiteState, own, 2'000'000);
@@ -472,10 +473,11 @@ TEST_CASE("the other machines of a site are drawn through their own models at th
   const char junk[] = "not a site state";
   state.on_message(ch::kSiteState, junk, sizeof junk, 2'000'000);
   j = state.json(2'000'000, nullptr);
-  CHECK(contains(j, "\"MGC_SITE_STATE\":5"));
+  CHECK(contains(j, "\"MGC_SITE_STATE\":4"));
   CHECK(contains(j, "\"joints\":[0.3,30,20]"));
   CHECK(contains(j, "\"age_s\":1,\"current\":false"));
-  CHECK(state.malformed() == 5);
+  CHECK(contains(j, "\"own_echoes\":1,"));
+  CHECK(state.malformed() == 4);
   CHECK(state.received() == 6);
 
   // A playback that seeks back forgets the site's states with the rest.
