@@ -53,7 +53,8 @@ double age_s(std::int64_t received_us, std::int64_t now_us) {
 
 }  // namespace
 
-void FeedState::on_message(const std::string& channel, const void* data, int size, std::int64_t now_us) {
+void FeedState::on_message(const std::string& channel, const void* data, int size, std::int64_t now_us,
+                           std::int64_t recorded_realtime_us) {
   bool ok = true;
   if (channel == ch::kMachineState) {
     machine_state_t m{};
@@ -100,7 +101,7 @@ void FeedState::on_message(const std::string& channel, const void* data, int siz
       obstacles_ = {o, now_us};
     }
   } else if (channel == ch::kSiteState && site_) {
-    ok = site_->on_state(data, size, now_us);  // refused ones (bad MAC, unknown machine, ...) count here
+    ok = site_->on_state(data, size, now_us, recorded_realtime_us);  // refused ones (bad MAC, unknown machine, ...) count here
   } else if (channel == ch::kCommandStatus) {
     command_status_t s{};
     ok = decode(data, size, s);

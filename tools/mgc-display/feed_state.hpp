@@ -49,8 +49,11 @@ class FeedState {
   void set_site(SiteView* site) noexcept { site_ = site; }
 
   //! One message from the bus (or a log) received at now_us (monotonic). Bytes that do not decode
-  //! as the channel's type are counted per channel and otherwise ignored.
-  void on_message(const std::string& channel, const void* data, int size, std::int64_t now_us);
+  //! as the channel's type are counted per channel and otherwise ignored. recorded_realtime_us: a
+  //! log's wall-clock receive time, which a verified site state's sender time is checked against
+  //! (-1 live: the site view's clock).
+  void on_message(const std::string& channel, const void* data, int size, std::int64_t now_us,
+                  std::int64_t recorded_realtime_us = -1);
 
   //! Everything the page shows, at now_us (monotonic): the age of each channel's latest message and
   //! whether the feed is alive. The plan's path is included only when its version differs from

@@ -41,6 +41,7 @@ Playback::Playback(const std::string& path) {
     if (events_.empty()) first_us = e->timestamp;
     Event ev;
     ev.offset_us = std::max<std::int64_t>(e->timestamp - first_us, events_.empty() ? 0 : events_.back().offset_us);
+    ev.recorded_us = e->timestamp;
     ev.channel = e->channel;
     const auto* bytes = static_cast<const std::uint8_t*>(e->data);
     ev.data.assign(bytes, bytes + e->datalen);
@@ -78,7 +79,7 @@ void Playback::run(FeedState& feed, const std::atomic<bool>& stop) {
     }
     for (; next < events_.size() && events_[next].offset_us <= position; ++next) {
       const Event& e = events_[next];
-      feed.on_message(e.channel, e.data.data(), static_cast<int>(e.data.size()), e.offset_us);
+      feed.on_message(e.channel, e.data.data(), static_cast<int>(e.data.size()), e.offset_us, e.recorded_us);
     }
   }
 }

@@ -42,6 +42,7 @@ class Playback {
  private:
   struct Event {
     std::int64_t offset_us = 0;  //!< since the first event [µs]
+    std::int64_t recorded_us = 0;  //!< the logger's wall-clock receive time (the log's timestamp) [µs]
     std::string channel;
     std::vector<std::uint8_t> data;
   };

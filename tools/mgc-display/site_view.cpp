@@ -22,6 +22,7 @@ SiteView::SiteView(const std::string& site_file, std::optional<std::int32_t> own
   if (key) {
     if (!own_id_) throw std::invalid_argument("a site key needs this display's machine id (--machine-id)");
     verifier_ = std::make_unique<firmware::SiteVerifier>(*key, firmware::make_site_roster(site_), *own_id_);
+    key_ = std::move(key);
   }
   for (std::size_t i = 0; i < site_.machines.size(); ++i) {
     const planning::SiteMachine& m = site_.machines[i];
@@ -37,13 +38,14 @@ SiteView::SiteView(const std::string& site_file, std::optional<std::int32_t> own
 
 SiteView::~SiteView() = default;
 
-bool SiteView::on_state(const void* data, int size, std::int64_t now_us) {
+bool SiteView::on_state(const void* data, int size, std::int64_t now_us, std::int64_t realtime_now_us) {
   const std::lock_guard lock(mutex_);
   site_state_t msg{};
   const char* refusal = nullptr;
   if (verifier_) {
     const firmware::SiteReason reason = verifier_->check_state_bytes(
-        std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), static_cast<std::size_t>(size)), msg, realtime_us_());
+        std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), static_cast<std::size_t>(size)), msg,
+        realtime_now_us >= 0 ? realtime_now_us : realtime_us_());
     if (reason == firmware::SiteReason::OwnMachine) {
       ++own_echoes_;
       return true;
@@ -82,6 +84,7 @@ bool SiteView::on_state(const void* data, int size, std::int64_t now_us) {
 void SiteView::clear() {
   const std::lock_guard lock(mutex_);
   for (Member& m : members_) m.received_us = -1;
+  if (key_) verifier_ = std::make_unique<firmware::SiteVerifier>(*key_, firmware::make_site_roster(site_), *own_id_);
 }
 
 void SiteView::write_json(Json& out, std::int64_t now_us) const {

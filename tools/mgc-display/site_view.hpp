@@ -41,13 +41,16 @@ class SiteView {
   //! not decode, names no member of the site, another joint count or non-finite joints; with a
   //! key, whatever SiteVerifier refuses. The display's own machine's states are counted as its
   //! own echoes and not drawn (the feed draws that machine).
-  bool on_state(const void* data, int size, std::int64_t now_us);
+  //! realtime_now_us: the wall clock to check the sender's clock against; -1 (live) reads the
+  //! clock given at construction, a recorded log passes the time its logger received the message.
+  bool on_state(const void* data, int size, std::int64_t now_us, std::int64_t realtime_now_us = -1);
 
   //! The "site" object for the page: whether verified, and each member with its age and, once
   //! heard from, its bodies at its joints.
   void write_json(Json& out, std::int64_t now_us) const;
 
-  //! Forgets every member's state (playback seeks back); the verifier keeps its counters.
+  //! Forgets every member's state and what the verifier has seen (playback seeks back, and the
+  //! same messages come again); the refusal counts stay.
   void clear();
 
   [[nodiscard]] bool verified() const noexcept { return verifier_ != nullptr; }
@@ -73,6 +76,7 @@ class SiteView {
   std::vector<Member> members_;
   std::map<std::string, std::int64_t> refused_;  //!< by reason
   std::int64_t own_echoes_ = 0;  //!< states of the display's own machine: accepted, not drawn
+  std::optional<firmware::SiteKey> key_;  //!< to start the verifier afresh on clear()
 };
 
 }  // namespace mgc::display

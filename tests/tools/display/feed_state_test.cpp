@@ -512,6 +512,29 @@ TEST_CASE("with a site key only verified site states are drawn", "[display][site
   CHECK(contains(j, "\"age_s\":0.1,\"current\":true,\"supervisor\":4,\"joints\":[0.3,30,20]"));
   CHECK(state.malformed() == 3);
 
+  // A recorded lift reviewed an hour later: each state is checked against the time its logger
+  // received it, not the review's clock; seeking back replays the same states, accepted again.
+  auto recorded = tower_state(10);
+  recorded.sender_time_us = kSiteNow_us - 3'600'000'000;
+  mgc::firmware::sign_site_state(recorded, test_site_key(3));
+  const auto bytes = encoded(recorded);
+  const auto play = [&](std::int64_t logged_us) {
+    state.on_message(ch::kSiteState, bytes.data(), static_cast<int>(bytes.size()), 2'000'000, logged_us);
+  };
+  play(recorded.sender_time_us + 4'000);
+  CHECK(state.malformed() == 3);
+  state.clear();
+  play(recorded.sender_time_us + 4'000);
+  CHECK(state.malformed() == 3);
+  CHECK(contains(state.json(2'000'000, nullptr), "\"age_s\":0,\"current\":true"));
+  // Once it has been taken, the same state again is a replay; and a log whose receive time is far
+  // from the state's sender time is refused as it is live.
+  play(recorded.sender_time_us + 4'000);
+  CHECK(state.malformed() == 4);
+  state.clear();
+  play(recorded.sender_time_us + 10'000'000);
+  CHECK(state.malformed() == 5);
+
   CHECK_THROWS_WITH(mgc::display::SiteView(site_path(), 9, std::nullopt, &site_clock_us), Catch::Contains("9"));
   CHECK_THROWS_AS(mgc::display::SiteView(site_path(), std::nullopt, test_site_key(3), &site_clock_us), std::invalid_argument);
 }
