@@ -31,7 +31,7 @@ expect_bad "malformed scenario" '^mgc-display: --scenario: .*bad.yaml' --scenari
 expect_bad "port out of range" '^mgc-display: --port' --port 70000
 
 # The site: a missing file, a machine id it lacks, a site key without a machine id or open to
-# others, the site options without --site, a site without a scenario.
+# others, the site options without --site, a site without a scenario or a machine id.
 site="$src/scenarios/sites/thesis-steel-frame.yaml"
 head -c 32 /dev/urandom >"$tmp/site.key"
 chmod 600 "$tmp/site.key"
@@ -43,7 +43,9 @@ expect_bad "site key without machine id" '^mgc-display: --site-key: needs --mach
 expect_bad "site key readable by others" '^mgc-display: --site-key: site key file .*open.key: mode 0644' --scenario "$scenario" \
   --site "$site" --machine-id 1 --site-key "$tmp/open.key" --lcm-url "$lcm_url"
 expect_bad "site options without a site" '^mgc-display: --site-key, --machine-id and --site-lcm-url need --site' --machine-id 1
-expect_bad "site without a scenario" '^mgc-display: --site: needs --scenario' --site "$site" --lcm-url "$lcm_url"
+expect_bad "site without a scenario or a machine" '^mgc-display: --site: needs --machine-id or --scenario' --site "$site" --lcm-url "$lcm_url"
+expect_bad "site machine it lacks, drawn from the site" '^mgc-display: --site: .*no machine with id 7; expected one of 1, 2$' \
+  --site "$site" --machine-id 7 --lcm-url "$lcm_url"
 
 # Logs: a good one of 2 s, then cut, then text, then empty.
 printf 'state 4 55 0.3 0.9 30 20\nwrite-log %s 2\nquit\n' "$tmp/lift.lcmlog" | "$feeder" "$lcm_url" "$tmp/sent.txt" >/dev/null
