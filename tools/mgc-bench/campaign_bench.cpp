@@ -7,6 +7,7 @@
 // what is drawn and measured and the targets.
 
 #include "campaign_bench.hpp"
+#include "site_families.hpp"
 #include "timing_report.hpp"
 
 #include <algorithm>
@@ -28,6 +29,8 @@
 #include <thread>
 #include <utility>
 #include <vector>
+
+#include <unistd.h>
 
 #include "mgc/firmware/controller.hpp"
 #include "mgc/planning/collision_world.hpp"
@@ -195,6 +198,72 @@ planning::JointVector draw_goal(const planning::Scenario& s, planning::Random& r
   }
   draws = 0;
   return s.goal;
+}
+
+//! Site draws a generated lift may take before it gives up (each one a site of its own). [-]
+constexpr int kMaxSiteDraws = 20;
+//! Generated sites are named by a site seed below this, short enough to read in a file name. [-]
+constexpr std::uint64_t kSiteSeeds = 100000;
+
+//! The intruders' distances on a generated site, by machine: as on the shipped sites of the same
+//! machine (kSites). No crane swings in: a generated site has no dynamic obstacles.
+Site generated_site_distances(planning::MachineKind kind) {
+  switch (kind) {
+    case planning::MachineKind::TowerCrane: return {nullptr, false, 8.0, 32.0, 4.0, 24.0};
+    case planning::MachineKind::Excavator: return {nullptr, false, 6.0, 14.0, 3.5, 10.0};
+    case planning::MachineKind::MobileCrane: break;
+  }
+  return {nullptr, false, 10.0, 28.0, 8.0, 18.0};
+}
+
+//! generate_site writes a family's machine file beside the sites each time, and the loader reads
+//! it: one site at a time across the campaign's threads.
+std::mutex& site_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+//! A generated lift's site, drawn from the lift's stream: a solvable family (every machine), a site
+//! seed, the site written and loaded, then a feasible goal near the site's own (draw_goal). A site
+//! that cannot be set up (no draw of the family's met its promise, or no feasible goal and the
+//! site's own goal not feasible either) is counted and the next drawn from the same stream.
+void draw_generated_site(const CampaignOptions& options, planning::Random& rng, LiftRecord& rec, Site& site, planning::Scenario& base,
+                         planning::JointVector& goal) {
+  std::vector<const SiteFamily*> solvable;
+  for (const SiteFamily& f : site_families()) {
+    if (f.expectation == SiteExpectation::Solvable) solvable.push_back(&f);
+  }
+  const std::filesystem::path machines = std::filesystem::path(options.scenarios_dir) / "machines";
+  const std::filesystem::path folder = campaign_sites_dir(options);
+  std::string why;
+  for (rec.site_redraws = 0; rec.site_redraws < kMaxSiteDraws; ++rec.site_redraws) {
+    const SiteFamily& family = *solvable[static_cast<std::size_t>(rng.uniform() * static_cast<double>(solvable.size())) % solvable.size()];
+    const std::uint64_t site_seed = rng.next() % kSiteSeeds;
+    GeneratedSite generated;
+    try {
+      const std::lock_guard lock(site_mutex());
+      generated = generate_site(family, site_seed, machines, folder);
+      base = planning::io::load_scenario(generated.file.string());
+    } catch (const planning::io::InputError&) {
+      throw;
+    } catch (const std::runtime_error& e) {
+      why = e.what();
+      continue;
+    }
+    freeze_obstacles(base);
+    goal = draw_goal(base, rng, rec.goal_draws);
+    if (rec.goal_draws == 0 && !goal_feasible(base, goal)) {
+      why = generated.file.filename().string() + ": no feasible goal in 30 draws, nor the site's own";
+      continue;
+    }
+    rec.site = generated.file.filename().string();
+    rec.family = family.name;
+    rec.site_seed = site_seed;
+    site = generated_site_distances(base.machine.kind);
+    site.has_crane = !base.dynamic_obstacles.empty() && base.dynamic_obstacles.front().obstacle.name.find("crane") != std::string::npos;
+    return;
+  }
+  throw std::runtime_error(fmt("no generated site of %d could be set up; the last: %s", kMaxSiteDraws, why.c_str()));
 }
 
 //! Which joints move fast in the undisturbed twin, every kTimelineStepS.
@@ -445,17 +514,30 @@ const char* to_string(Disturbance d) noexcept {
   return "?";
 }
 
+std::string campaign_sites_dir(const CampaignOptions& options) {
+  if (!options.sites_dir.empty()) return options.sites_dir;
+  if (!options.out_dir.empty()) return (std::filesystem::path(options.out_dir) / "campaign-sites").string();
+  return (std::filesystem::temp_directory_path() / ("mgc-bench-campaign-" + std::to_string(::getpid()))).string();
+}
+
 LiftRecord run_campaign_lift(const CampaignOptions& options, int index) {
   LiftRecord rec;
   rec.index = index;
   rec.seed = options.first_seed + 1 + static_cast<std::uint64_t>(index);
   planning::Random rng(rec.seed);
-  const Site& site = kSites[static_cast<int>(rng.uniform() * kNumSites) % kNumSites];
-  rec.site = site.file;
-  planning::Scenario base = planning::io::load_scenario((std::filesystem::path(options.scenarios_dir) / site.file).string());
-  freeze_obstacles(base);
+  planning::Scenario base;
+  planning::JointVector goal;
+  Site site{};
+  if (index < kShippedLifts) {
+    site = kSites[static_cast<int>(rng.uniform() * kNumSites) % kNumSites];
+    rec.site = site.file;
+    base = planning::io::load_scenario((std::filesystem::path(options.scenarios_dir) / site.file).string());
+    freeze_obstacles(base);
+    goal = draw_goal(base, rng, rec.goal_draws);
+  } else {
+    draw_generated_site(options, rng, rec, site, base, goal);
+  }
   const int n = static_cast<int>(base.machine.joints.size());
-  const planning::JointVector goal = draw_goal(base, rng, rec.goal_draws);
   rec.goal.assign(goal.data(), goal.data() + n);
 
   // The disturbance: none 20 %, an intrusion 40 %, a fault 40 %; its numbers are drawn now, so
@@ -687,7 +769,12 @@ LiftRecord run_campaign_lift(const CampaignOptions& options, int index) {
 }
 
 std::string lift_record_text(const LiftRecord& rec) {
-  std::string t = fmt("lift %d (seed %llu): %s, goal %s (%s)\n", rec.index, static_cast<unsigned long long>(rec.seed), rec.site.c_str(),
+  const std::string generated = rec.family.empty() ? std::string()
+                                                   : fmt(" (generated: family %s, site seed %llu, %d site%s redrawn before it)", rec.family.c_str(),
+                                                         static_cast<unsigned long long>(rec.site_seed), rec.site_redraws,
+                                                         rec.site_redraws == 1 ? "" : "s");
+  std::string t = fmt("lift %d (seed %llu): %s%s, goal %s (%s)\n", rec.index, static_cast<unsigned long long>(rec.seed), rec.site.c_str(),
+                      generated.c_str(),
                       [&] {
                         std::string g;
                         for (std::size_t j = 0; j < rec.goal.size(); ++j) g += fmt("%s%.5f", j == 0 ? "" : " ", rec.goal[j]);
@@ -708,8 +795,9 @@ std::string lift_record_text(const LiftRecord& rec) {
 }
 
 std::vector<LiftRecord> run_campaign(const CampaignOptions& options) {
-  const int lifts = options.lifts;
-  std::vector<LiftRecord> records(static_cast<std::size_t>(std::max(lifts, 0)));
+  const int first = std::max(options.first_lift, 0);
+  const int lifts = std::max(options.lifts - first, 0);
+  std::vector<LiftRecord> records(static_cast<std::size_t>(lifts));
   std::atomic<int> next{0};
   std::atomic<bool> failed{false};
   std::mutex mutex;
@@ -721,10 +809,10 @@ std::vector<LiftRecord> run_campaign(const CampaignOptions& options) {
       const int i = next.fetch_add(1);
       if (i >= lifts || failed.load()) return;
       try {
-        records[static_cast<std::size_t>(i)] = run_campaign_lift(options, i);
+        records[static_cast<std::size_t>(i)] = run_campaign_lift(options, first + i);
       } catch (const std::exception& e) {
         const std::lock_guard lock(mutex);
-        if (!failed.exchange(true)) error = fmt("lift %d: %s", i, e.what());
+        if (!failed.exchange(true)) error = fmt("lift %d: %s", first + i, e.what());
         return;
       }
       const std::lock_guard lock(mutex);
@@ -789,6 +877,147 @@ std::string lift_list(const std::vector<int>& lifts, std::size_t most = 30) {
   return t;
 }
 
+//! The campaign's tallies over a set of lifts, each with the lifts behind it so that any one
+//! replays with --lift N.
+struct Tally {
+  std::size_t lifts = 0;
+  std::vector<int> contact_bad, contact_apart, contact_moving, not_completed_contact, not_injected, lead_short, chart_over, below_ground,
+      not_completed, false_stops, twin_incomplete, missed, late, sudden, redrawn;
+  std::vector<double> ratios_disturbed, leads, sudden_leads;
+  int judged_completion = 0, completed = 0, faults_judged = 0, faults_found = 0, site_redraws = 0;
+  std::map<std::string, std::vector<double>> detect_by_kind;
+  std::map<std::string, double> budget_by_kind;
+  std::map<std::string, int> faults_by_kind;
+  std::map<std::string, int> count_by_kind;
+  //! Lifts completed of those judged: per shipped site file, per generated site family.
+  std::map<std::string, std::pair<int, int>> completion_by_site, completion_by_family;
+  std::vector<double> twin_lift_s, wall_per_lift;
+  double min_clearance = std::numeric_limits<double>::infinity(), min_ground = std::numeric_limits<double>::infinity(), peak_chart = 0.0;
+};
+
+void add(Tally& t, const LiftRecord& rec) {
+  const LiftRun& r = rec.run;
+  ++t.lifts;
+  ++t.count_by_kind[to_string(rec.disturbance)];
+  t.site_redraws += rec.site_redraws;
+  if (rec.site_redraws > 0) t.redrawn.push_back(rec.index);
+  t.wall_per_lift.push_back(r.wall_s + (rec.disturbance == Disturbance::None ? 0.0 : rec.twin.wall_s));
+  for (const LiftRun* run : {&rec.twin, &rec.run}) {
+    if (run->samples_chart_exceeded > 0 && (t.chart_over.empty() || t.chart_over.back() != rec.index)) t.chart_over.push_back(rec.index);
+    if (run->samples_below_ground > 0 && (t.below_ground.empty() || t.below_ground.back() != rec.index)) t.below_ground.push_back(rec.index);
+    if (!std::isnan(run->contact_s)) {
+      // A moving intruder that touches the machine did not cooperate: into a machine at rest
+      // it is counted apart with its warning; into one still moving, listed apart as well.
+      // Anything else (a standing obstacle, the static site) is the machine's own contact.
+      if (run->contact_intruder_moving && run->contact_machine_at_rest) {
+        if (t.contact_apart.empty() || t.contact_apart.back() != rec.index) {
+          t.contact_apart.push_back(rec.index);
+          // No warning can come before the intruder starts to move: one that set off less than
+          // the lead before the contact is listed with its lead, not judged by the target.
+          if (run->intruder_moving_for_s >= kApproachLeadS) {
+            t.leads.push_back(run->approach_lead_s);
+            if (!(run->approach_lead_s >= kApproachLeadS)) t.lead_short.push_back(rec.index);
+          } else {
+            t.sudden.push_back(rec.index);
+            t.sudden_leads.push_back(std::isnan(run->approach_lead_s) ? 0.0 : run->approach_lead_s);
+          }
+        }
+      } else if (run->contact_intruder_moving) {
+        if (t.contact_moving.empty() || t.contact_moving.back() != rec.index) t.contact_moving.push_back(rec.index);
+      } else if (t.contact_bad.empty() || t.contact_bad.back() != rec.index) {
+        t.contact_bad.push_back(rec.index);
+      }
+    }
+    t.min_clearance = std::min(t.min_clearance, run->least_clearance_m);
+    if (!std::isnan(run->least_ground_m)) t.min_ground = std::min(t.min_ground, run->least_ground_m);
+    if (!std::isnan(run->peak_chart)) t.peak_chart = std::max(t.peak_chart, run->peak_chart);
+  }
+  if (rec.twin.stops > 0) t.false_stops.push_back(rec.index);
+  if (!rec.twin.completed) t.twin_incomplete.push_back(rec.index);
+  if (rec.twin.completed) t.twin_lift_s.push_back(rec.twin.lift_s);
+  // Completion is judged where nothing had to stop the lift: no fault, or one the controller
+  // is to ride through (tag noise).
+  const bool stopping_fault = rec.disturbance == Disturbance::Fault && !rec.expected_reasons.empty();
+  if (!stopping_fault) {
+    ++t.judged_completion;
+    auto& site = rec.family.empty() ? t.completion_by_site[rec.site] : t.completion_by_family[rec.family];
+    ++site.second;
+    if (r.completed) {
+      ++t.completed;
+      ++site.first;
+    } else {
+      t.not_completed.push_back(rec.index);
+      if (!std::isnan(r.contact_s) && r.contact_intruder_moving) t.not_completed_contact.push_back(rec.index);
+      if (rec.disturbance == Disturbance::Fault && rec.fault_text.empty()) t.not_injected.push_back(rec.index);
+    }
+    if (r.completed && rec.twin.completed && rec.twin.lift_s > 0.0 && rec.disturbance != Disturbance::None) {
+      t.ratios_disturbed.push_back(r.lift_s / rec.twin.lift_s);
+    }
+  } else {
+    ++t.faults_judged;
+    const std::string kind = rec.fault_text.substr(0, rec.fault_text.find_first_of(":@"));
+    const std::string key = kind == "heartbeat-lost" ? rec.fault_text.substr(0, rec.fault_text.find('@')) : kind;
+    const std::string group = key.rfind("heartbeat-lost:", 0) == 0 &&
+                                      key != "heartbeat-lost:valve" && key != "heartbeat-lost:cutoff" && key != "heartbeat-lost:uwb"
+                                  ? "heartbeat-lost:joint"
+                              : kind == "encoder-offset" ? (rec.fault_text.find(",rate=") != std::string::npos ? "encoder-offset (drift)" : "encoder-offset (step)")
+                                                         : key;
+    ++t.faults_by_kind[group];
+    t.budget_by_kind[group] = rec.detect_budget_s;
+    if (rec.detected) {
+      ++t.faults_found;
+      t.detect_by_kind[group].push_back(rec.detect_s);
+      if (rec.detect_s > rec.detect_budget_s + 1e-9) t.late.push_back(rec.index);
+    } else {
+      t.missed.push_back(rec.index);
+    }
+  }
+}
+
+//! The targets, each met or not, with its figures and the lifts behind them.
+std::string targets_table(const Tally& t) {
+  const double completion = t.judged_completion == 0 ? 0.0 : static_cast<double>(t.completed) / t.judged_completion;
+  const double median_ratio = t.ratios_disturbed.empty() ? 0.0 : percentile(t.ratios_disturbed, 0.5);
+  const auto met = [](bool ok) { return ok ? "met" : "**NOT met**"; };
+  std::string md = "| Target | Result | |\n|---|---|---|\n";
+  md += fmt("| 0 contacts where the intruder cooperates or stands still (true clearance under 1 mm, lifts and twins) | %zu (lifts %s) | %s |\n",
+            t.contact_bad.size(), lift_list(t.contact_bad).c_str(), met(t.contact_bad.empty()));
+  md += fmt("| 0 chart exceedances in the true state | %zu (lifts %s); peak utilisation %.3f | %s |\n", t.chart_over.size(),
+            lift_list(t.chart_over).c_str(), t.peak_chart, met(t.chart_over.empty()));
+  md += fmt("| 0 loads below ground in the true state | %zu (lifts %s); least load above ground %.3f m | %s |\n", t.below_ground.size(),
+            lift_list(t.below_ground).c_str(), t.min_ground, met(t.below_ground.empty()));
+  md += fmt("| an uncooperative intruder sweeping into the machine at rest (counted apart): the approach warning >= 4 s before, where "
+            "the intruder had been moving for 4 s | %zu contacts (lifts %s); of them %zu moving for 4 s, lead %s; under 4 s or none: %s; "
+            "moving for less (no 4 s warning possible): %s, lead %s | %s |\n",
+            t.contact_apart.size(), lift_list(t.contact_apart).c_str(), t.leads.size(),
+            t.leads.empty() ? "–" : fmt("min %.2f s, median %.2f s", *std::min_element(t.leads.begin(), t.leads.end()), percentile(t.leads, 0.5)).c_str(),
+            lift_list(t.lead_short).c_str(), lift_list(t.sudden).c_str(),
+            t.sudden_leads.empty() ? "–" : fmt("min %.2f s, max %.2f s", *std::min_element(t.sudden_leads.begin(), t.sudden_leads.end()),
+                                                *std::max_element(t.sudden_leads.begin(), t.sudden_leads.end())).c_str(),
+            met(t.lead_short.empty()));
+  md += fmt("| (no target) an uncooperative intruder moving into the machine while it moves or stops | %zu (lifts %s) | listed |\n",
+            t.contact_moving.size(), lift_list(t.contact_moving).c_str());
+  md += fmt("| >= 95 %% of lifts completed (lifts without a fault that must stop them: %d) | %.1f %% (%d); not completed: %s; of them "
+            "after an intruder moved into the machine: %s; a fault not injected, the undisturbed lift never moved: %s | %s |\n",
+            t.judged_completion, 100.0 * completion, t.completed, lift_list(t.not_completed).c_str(), lift_list(t.not_completed_contact).c_str(),
+            lift_list(t.not_injected).c_str(), met(completion >= 0.95));
+  md += fmt("| median lift time <= 1.3 × its undisturbed twin (completed disturbed lifts: %zu) | %.3f × (p95 %.3f ×, max %.3f ×) | %s |\n",
+            t.ratios_disturbed.size(), median_ratio, t.ratios_disturbed.empty() ? 0.0 : percentile(t.ratios_disturbed, 0.95),
+            t.ratios_disturbed.empty() ? 0.0 : *std::max_element(t.ratios_disturbed.begin(), t.ratios_disturbed.end()), met(median_ratio <= 1.3));
+  md += fmt("| 0 safety stops in the %zu undisturbed lifts (no false stops) | %zu (lifts %s); twins not completed: %s | %s |\n",
+            t.lifts, t.false_stops.size(), lift_list(t.false_stops).c_str(), lift_list(t.twin_incomplete).c_str(), met(t.false_stops.empty()));
+  md += fmt("| every injected fault found within its documented time | %d of %d found, %zu late (lifts %s), %zu not found (lifts %s) | %s |\n",
+            t.faults_found, t.faults_judged, t.late.size(), lift_list(t.late).c_str(), t.missed.size(), lift_list(t.missed).c_str(),
+            met(t.late.empty() && t.missed.empty()));
+  return md;
+}
+
+std::string disturbance_counts(const Tally& t) {
+  std::string md;
+  for (const auto& [kind, count] : t.count_by_kind) md += fmt("%s%s %d", md.empty() ? "" : ", ", kind.c_str(), count);
+  return md;
+}
+
 }  // namespace
 
 int run_campaign_suite(const CampaignOptions& options) {
@@ -803,156 +1032,46 @@ int run_campaign_suite(const CampaignOptions& options) {
     const std::vector<LiftRecord> records = run_campaign(options);
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 
-    // Tallies, each with the lifts behind it so that any one replays with --lift N.
-    std::vector<int> contact_bad, contact_apart, contact_moving, not_completed_contact, not_injected, lead_short, chart_over, below_ground, not_completed, false_stops, twin_incomplete,
-        missed, late;
-    std::vector<double> ratios_disturbed, ratios_all, leads, sudden_leads;
-    std::vector<int> sudden;
-    int judged_completion = 0, completed = 0, faults_judged = 0, faults_found = 0;
-    std::map<std::string, std::vector<double>> detect_by_kind;
-    std::map<std::string, double> budget_by_kind;
-    std::map<std::string, int> faults_by_kind;
-    std::map<std::string, int> count_by_kind;
-    std::map<std::string, std::pair<int, int>> completion_by_site;
-    std::vector<double> twin_lift_s, wall_per_lift;
-    double min_clearance = std::numeric_limits<double>::infinity(), min_ground = std::numeric_limits<double>::infinity(), peak_chart = 0.0;
+    Tally all, generated;
     for (const LiftRecord& rec : records) {
-      const LiftRun& r = rec.run;
-      ++count_by_kind[to_string(rec.disturbance)];
-      wall_per_lift.push_back(r.wall_s + (rec.disturbance == Disturbance::None ? 0.0 : rec.twin.wall_s));
-      for (const LiftRun* run : {&rec.twin, &rec.run}) {
-        if (run->samples_chart_exceeded > 0 && (chart_over.empty() || chart_over.back() != rec.index)) chart_over.push_back(rec.index);
-        if (run->samples_below_ground > 0 && (below_ground.empty() || below_ground.back() != rec.index)) below_ground.push_back(rec.index);
-        if (!std::isnan(run->contact_s)) {
-          // A moving intruder that touches the machine did not cooperate: into a machine at rest
-          // it is counted apart with its warning; into one still moving, listed apart as well.
-          // Anything else (a standing obstacle, the static site) is the machine's own contact.
-          if (run->contact_intruder_moving && run->contact_machine_at_rest) {
-            if (contact_apart.empty() || contact_apart.back() != rec.index) {
-              contact_apart.push_back(rec.index);
-              // No warning can come before the intruder starts to move: one that set off less than
-              // the lead before the contact is listed with its lead, not judged by the target.
-              if (run->intruder_moving_for_s >= kApproachLeadS) {
-                leads.push_back(run->approach_lead_s);
-                if (!(run->approach_lead_s >= kApproachLeadS)) lead_short.push_back(rec.index);
-              } else {
-                sudden.push_back(rec.index);
-                sudden_leads.push_back(std::isnan(run->approach_lead_s) ? 0.0 : run->approach_lead_s);
-              }
-            }
-          } else if (run->contact_intruder_moving) {
-            if (contact_moving.empty() || contact_moving.back() != rec.index) contact_moving.push_back(rec.index);
-          } else if (contact_bad.empty() || contact_bad.back() != rec.index) {
-            contact_bad.push_back(rec.index);
-          }
-        }
-        min_clearance = std::min(min_clearance, run->least_clearance_m);
-        if (!std::isnan(run->least_ground_m)) min_ground = std::min(min_ground, run->least_ground_m);
-        if (!std::isnan(run->peak_chart)) peak_chart = std::max(peak_chart, run->peak_chart);
-      }
-      if (rec.twin.stops > 0) false_stops.push_back(rec.index);
-      if (!rec.twin.completed) twin_incomplete.push_back(rec.index);
-      if (rec.twin.completed) twin_lift_s.push_back(rec.twin.lift_s);
-      // Completion is judged where nothing had to stop the lift: no fault, or one the controller
-      // is to ride through (tag noise).
-      const bool stopping_fault = rec.disturbance == Disturbance::Fault && !rec.expected_reasons.empty();
-      if (!stopping_fault) {
-        ++judged_completion;
-        auto& site = completion_by_site[rec.site];
-        ++site.second;
-        if (r.completed) {
-          ++completed;
-          ++site.first;
-        } else {
-          not_completed.push_back(rec.index);
-          if (!std::isnan(r.contact_s) && r.contact_intruder_moving) not_completed_contact.push_back(rec.index);
-          if (rec.disturbance == Disturbance::Fault && rec.fault_text.empty()) not_injected.push_back(rec.index);
-        }
-        if (r.completed && rec.twin.completed && rec.twin.lift_s > 0.0) {
-          const double ratio = r.lift_s / rec.twin.lift_s;
-          ratios_all.push_back(ratio);
-          if (rec.disturbance != Disturbance::None) ratios_disturbed.push_back(ratio);
-        }
-      } else {
-        ++faults_judged;
-        const std::string kind = rec.fault_text.substr(0, rec.fault_text.find_first_of(":@"));
-        const std::string key = kind == "heartbeat-lost" ? rec.fault_text.substr(0, rec.fault_text.find('@')) : kind;
-        const std::string group = key.rfind("heartbeat-lost:", 0) == 0 &&
-                                          key != "heartbeat-lost:valve" && key != "heartbeat-lost:cutoff" && key != "heartbeat-lost:uwb"
-                                      ? "heartbeat-lost:joint"
-                                  : kind == "encoder-offset" ? (rec.fault_text.find(",rate=") != std::string::npos ? "encoder-offset (drift)" : "encoder-offset (step)")
-                                                             : key;
-        ++faults_by_kind[group];
-        budget_by_kind[group] = rec.detect_budget_s;
-        if (rec.detected) {
-          ++faults_found;
-          detect_by_kind[group].push_back(rec.detect_s);
-          if (rec.detect_s > rec.detect_budget_s + 1e-9) late.push_back(rec.index);
-        } else {
-          missed.push_back(rec.index);
-        }
-      }
+      add(all, rec);
+      if (!rec.family.empty()) add(generated, rec);
     }
-    const double completion = judged_completion == 0 ? 0.0 : static_cast<double>(completed) / judged_completion;
-    const double median_ratio = ratios_disturbed.empty() ? 0.0 : percentile(ratios_disturbed, 0.5);
-    const auto met = [](bool ok) { return ok ? "met" : "**NOT met**"; };
+    const std::size_t shipped = all.lifts - generated.lifts;
+    const int first = records.empty() ? 0 : records.front().index;
+    const int last = records.empty() ? 0 : records.back().index;
 
     std::string md = "### campaign\n\n";
-    md += fmt("`%s`: %zu randomized lifts (seeds %llu..%llu) on %d threads, each beside its undisturbed twin, in stepped time on the "
-              "shipped sites; judged in the simulator's true state (docs/safety.md \"The campaign\"). %.0f s wall (%.2f s per lift and "
-              "twin on one thread, median %.2f s); load average before %s, after %s.\n\n",
-              options.command.c_str(), records.size(), static_cast<unsigned long long>(options.first_seed + 1),
-              static_cast<unsigned long long>(options.first_seed + records.size()), std::max(1, options.threads), wall_s,
-              wall_per_lift.empty() ? 0.0 : [&] { double a = 0; for (double w : wall_per_lift) a += w; return a / static_cast<double>(wall_per_lift.size()); }(),
-              wall_per_lift.empty() ? 0.0 : percentile(wall_per_lift, 0.5), load_before.c_str(), load_average().c_str());
-    md += "Disturbances: ";
-    bool first = true;
-    for (const auto& [kind, count] : count_by_kind) {
-      md += fmt("%s%s %d", first ? "" : ", ", kind.c_str(), count);
-      first = false;
+    md += fmt("`%s`: %zu randomized lifts %d..%d (seeds %llu..%llu) on %d threads, each beside its undisturbed twin, in stepped time: "
+              "%zu on the shipped sites, %zu on generated sites (lifts from %d; written to %s); judged in the simulator's true state "
+              "(docs/safety.md \"The campaign\"). %.0f s wall (%.2f s per lift and twin on one thread, median %.2f s); load average "
+              "before %s, after %s.\n\n",
+              options.command.c_str(), records.size(), first, last, static_cast<unsigned long long>(options.first_seed + 1 + first),
+              static_cast<unsigned long long>(options.first_seed + 1 + last), std::max(1, options.threads), shipped, generated.lifts,
+              kShippedLifts, generated.lifts == 0 ? "–" : campaign_sites_dir(options).c_str(), wall_s,
+              all.wall_per_lift.empty() ? 0.0 : [&] { double a = 0; for (double w : all.wall_per_lift) a += w; return a / static_cast<double>(all.wall_per_lift.size()); }(),
+              all.wall_per_lift.empty() ? 0.0 : percentile(all.wall_per_lift, 0.5), load_before.c_str(), load_average().c_str());
+    md += "Disturbances: " + disturbance_counts(all) + ".\n\nThe targets over every lift:\n\n" + targets_table(all);
+    if (generated.lifts > 0) {
+      md += fmt("\nThe same targets over the %zu lifts on generated sites alone (disturbances: %s; sites that could not be set up and "
+                "were redrawn: %d, in lifts %s):\n\n",
+                generated.lifts, disturbance_counts(generated).c_str(), generated.site_redraws, lift_list(generated.redrawn).c_str());
+      md += targets_table(generated);
     }
-    md += ".\n\n| Target | Result | |\n|---|---|---|\n";
-    md += fmt("| 0 contacts where the intruder cooperates or stands still (true clearance under 1 mm, lifts and twins) | %zu (lifts %s) | %s |\n",
-              contact_bad.size(), lift_list(contact_bad).c_str(), met(contact_bad.empty()));
-    md += fmt("| 0 chart exceedances in the true state | %zu (lifts %s); peak utilisation %.3f | %s |\n", chart_over.size(),
-              lift_list(chart_over).c_str(), peak_chart, met(chart_over.empty()));
-    md += fmt("| 0 loads below ground in the true state | %zu (lifts %s); least load above ground %.3f m | %s |\n", below_ground.size(),
-              lift_list(below_ground).c_str(), min_ground, met(below_ground.empty()));
-    md += fmt("| an uncooperative intruder sweeping into the machine at rest (counted apart): the approach warning >= 4 s before, where "
-              "the intruder had been moving for 4 s | %zu contacts (lifts %s); of them %zu moving for 4 s, lead %s; under 4 s or none: %s; "
-              "moving for less (no 4 s warning possible): %s, lead %s | %s |\n",
-              contact_apart.size(), lift_list(contact_apart).c_str(), leads.size(),
-              leads.empty() ? "–" : fmt("min %.2f s, median %.2f s", *std::min_element(leads.begin(), leads.end()), percentile(leads, 0.5)).c_str(),
-              lift_list(lead_short).c_str(), lift_list(sudden).c_str(),
-              sudden_leads.empty() ? "–" : fmt("min %.2f s, max %.2f s", *std::min_element(sudden_leads.begin(), sudden_leads.end()),
-                                                *std::max_element(sudden_leads.begin(), sudden_leads.end())).c_str(),
-              met(lead_short.empty()));
-    md += fmt("| (no target) an uncooperative intruder moving into the machine while it moves or stops | %zu (lifts %s) | listed |\n",
-              contact_moving.size(), lift_list(contact_moving).c_str());
-    md += fmt("| >= 95 %% of lifts completed (lifts without a fault that must stop them: %d) | %.1f %% (%d); not completed: %s; of them "
-              "after an intruder moved into the machine: %s; a fault not injected, the undisturbed lift never moved: %s | %s |\n",
-              judged_completion, 100.0 * completion, completed, lift_list(not_completed).c_str(), lift_list(not_completed_contact).c_str(),
-              lift_list(not_injected).c_str(), met(completion >= 0.95));
-    md += fmt("| median lift time <= 1.3 × its undisturbed twin (completed disturbed lifts: %zu) | %.3f × (p95 %.3f ×, max %.3f ×) | %s |\n",
-              ratios_disturbed.size(), median_ratio, ratios_disturbed.empty() ? 0.0 : percentile(ratios_disturbed, 0.95),
-              ratios_disturbed.empty() ? 0.0 : *std::max_element(ratios_disturbed.begin(), ratios_disturbed.end()), met(median_ratio <= 1.3));
-    md += fmt("| 0 safety stops in the %zu undisturbed lifts (no false stops) | %zu (lifts %s); twins not completed: %s | %s |\n",
-              records.size(), false_stops.size(), lift_list(false_stops).c_str(), lift_list(twin_incomplete).c_str(), met(false_stops.empty()));
-    md += fmt("| every injected fault found within its documented time | %d of %d found, %zu late (lifts %s), %zu not found (lifts %s) | %s |\n",
-              faults_found, faults_judged, late.size(), lift_list(late).c_str(), missed.size(), lift_list(missed).c_str(),
-              met(late.empty() && missed.empty()));
     md += "\nFaults by kind (detection: the fault's start to the supervisor's stop or FAULT naming it):\n\n"
           "| fault | injected | found | within | median s | max s |\n|---|---|---|---|---|---|\n";
-    for (const auto& [kind, count] : faults_by_kind) {
-      const std::vector<double>& d = detect_by_kind[kind];
-      md += fmt("| %s | %d | %zu | %.2f s | %s | %s |\n", kind.c_str(), count, d.size(), budget_by_kind[kind],
+    for (const auto& [kind, count] : all.faults_by_kind) {
+      const auto found = all.detect_by_kind.find(kind);
+      const std::vector<double> d = found == all.detect_by_kind.end() ? std::vector<double>{} : found->second;
+      md += fmt("| %s | %d | %zu | %.2f s | %s | %s |\n", kind.c_str(), count, d.size(), all.budget_by_kind.at(kind),
                 d.empty() ? "–" : fmt("%.3f", percentile(d, 0.5)).c_str(),
                 d.empty() ? "–" : fmt("%.3f", *std::max_element(d.begin(), d.end())).c_str());
     }
-    md += "\nCompletion by site (lifts without a fault that must stop them):\n\n| site | completed |\n|---|---|\n";
-    for (const auto& [site, c] : completion_by_site) md += fmt("| %s | %d of %d |\n", site.c_str(), c.first, c.second);
+    md += "\nCompletion by site (lifts without a fault that must stop them; the generated sites by family):\n\n| site | completed |\n|---|---|\n";
+    for (const auto& [site, c] : all.completion_by_site) md += fmt("| %s | %d of %d |\n", site.c_str(), c.first, c.second);
+    for (const auto& [family, c] : all.completion_by_family) md += fmt("| generated: %s | %d of %d |\n", family.c_str(), c.first, c.second);
     md += fmt("\nUndisturbed lifts: median %.1f s from the goal request to the goal; least true clearance over every run %.3f m.\n",
-              twin_lift_s.empty() ? 0.0 : percentile(twin_lift_s, 0.5), min_clearance);
+              all.twin_lift_s.empty() ? 0.0 : percentile(all.twin_lift_s, 0.5), all.min_clearance);
     std::printf("%s\n", md.c_str());
     if (!options.out_dir.empty()) {
       std::filesystem::create_directories(options.out_dir);

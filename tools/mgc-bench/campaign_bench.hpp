@@ -8,11 +8,22 @@
 
 namespace mgc::bench {
 
+//! Lifts 0 .. kShippedLifts - 1 run on the shipped sites, the lifts from kShippedLifts on on
+//! generated sites (docs/sites.md), so that adding generated lifts leaves every shipped lift as it was.
+inline constexpr int kShippedLifts = 1000;
+
+//! Lifts on generated sites in a default campaign. [-]
+inline constexpr int kGeneratedLifts = 500;
+
 struct CampaignOptions {
   std::string scenarios_dir = "scenarios";  //!< folder of the shipped scenarios
   std::string out_dir;                      //!< campaign.md and campaign.csv go here when not empty
+  //! Where the generated sites are written: when empty, <out_dir>/campaign-sites, or without an
+  //! out_dir a folder in the system's temporary folder.
+  std::string sites_dir;
   std::string command;                      //!< the command line, for the report
-  int lifts = 1000;                         //!< lifts 0 .. lifts - 1 [-]
+  int first_lift = 0;                       //!< lifts first_lift .. lifts - 1 run [-]
+  int lifts = kShippedLifts + kGeneratedLifts;  //!< see first_lift [-]
   int lift = -1;                            //!< >= 0: run this lift alone and print its whole record
   std::uint64_t first_seed = 0;             //!< lift i draws everything from seed first_seed + 1 + i
   int threads = 2;                          //!< lifts run in parallel; the results do not depend on it
@@ -81,6 +92,11 @@ struct LiftRecord {
   int index = 0;
   std::uint64_t seed = 0;
   std::string site;                  //!< scenario file name
+  //! A generated site's family (empty on a shipped site), its site seed, and how many sites were
+  //! drawn before it and could not be set up (generate_site found no draw, or no feasible goal).
+  std::string family;
+  std::uint64_t site_seed = 0;
+  int site_redraws = 0;
   std::vector<double> goal;          //!< the drawn goal [rad | m]
   int goal_draws = 0;                //!< goals drawn until one was feasible (0: the scenario's own)
   Disturbance disturbance = Disturbance::None;
@@ -100,14 +116,18 @@ struct LiftRecord {
 };
 
 //! Runs lift `index` (its twin first, then the lift disturbed). Throws std::runtime_error when a
-//! scenario cannot be loaded or a run cannot be set up.
+//! scenario cannot be loaded or a run cannot be set up, or when none of a generated lift's site
+//! draws could be set up.
 [[nodiscard]] LiftRecord run_campaign_lift(const CampaignOptions& options, int index);
 
 //! The lift's whole record, as --lift N prints it: every figure measured, no wall time, so that
 //! the same lift gives the same text.
 [[nodiscard]] std::string lift_record_text(const LiftRecord& record);
 
-//! Lifts 0 .. options.lifts - 1 on options.threads threads, in index order.
+//! The folder generated sites are written to (CampaignOptions::sites_dir).
+[[nodiscard]] std::string campaign_sites_dir(const CampaignOptions& options);
+
+//! Lifts options.first_lift .. options.lifts - 1 on options.threads threads, in index order.
 [[nodiscard]] std::vector<LiftRecord> run_campaign(const CampaignOptions& options);
 
 //! The `campaign` suite (docs/safety.md "The campaign"): the lifts, the targets met or not, a

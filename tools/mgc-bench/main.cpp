@@ -93,7 +93,11 @@ int main(int argc, char** argv) {
       ->check(mgc::tools::nonnegative_number());
   app.add_option("--sweep-limit", loop.sweep_limit_s, "loop suite: simulated seconds a sweep run may take to reach the goal")
       ->check(mgc::tools::positive_number());
-  app.add_option("--campaign-lifts", campaign.lifts, "campaign suite: lifts 0 .. K-1 (default 1000)")->check(mgc::tools::positive_number());
+  app.add_option("--campaign-lifts", campaign.lifts,
+                 "campaign suite: lifts up to K-1 (default 1500): lifts 0-999 on the shipped sites, from 1000 on generated sites")
+      ->check(mgc::tools::positive_number());
+  app.add_option("--campaign-first", campaign.first_lift, "campaign suite: the first lift (default 0; 1000: the generated sites' lifts alone)")
+      ->check(mgc::tools::nonnegative_number());
   app.add_option("--lift", campaign.lift, "campaign suite: run lift N alone and print its whole record")
       ->check(mgc::tools::nonnegative_number());
   app.add_option("--campaign-threads", campaign.threads, "campaign suite: lifts run on this many threads (the results do not depend on it)")
@@ -149,6 +153,10 @@ int main(int argc, char** argv) {
   }
   if (campaign.lift >= 0 && suite_name != "campaign") {
     std::fprintf(stderr, "mgc-bench: --lift: expected --suite campaign, got --suite '%s'\n", suite_name.c_str());
+    return 2;
+  }
+  if (campaign.first_lift >= campaign.lifts) {
+    std::fprintf(stderr, "mgc-bench: --campaign-first: expected a lift below --campaign-lifts (%d), got %d\n", campaign.lifts, campaign.first_lift);
     return 2;
   }
   if (campaign.lift >= 0 && campaign.lift >= campaign.lifts) {
