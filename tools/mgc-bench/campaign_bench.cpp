@@ -90,6 +90,9 @@ constexpr double kMovingShare = 0.3;
 constexpr double kTimelineStepS = 0.1;
 //! An undisturbed lift that has not ended by then is ended. [s]
 constexpr double kTwinLimitS = 400.0;
+//! The same on a generated site: a crane's path there may telescope the boom in and out by tens of
+//! metres at 0.1 m/s round a tower or a frame. [s]
+constexpr double kGeneratedTwinLimitS = 1200.0;
 //! A disturbed lift may take this much longer than its twin before it is ended. [s]
 constexpr double kExtraLimitS = 150.0;
 //! After FAULT: the run goes on until the machine is at rest for this long, at most kFaultTailS. [s]
@@ -564,6 +567,7 @@ LiftRecord run_campaign_lift(const CampaignOptions& options, int index) {
   twin_setup.config = config;
   twin_setup.goal = goal;
   twin_setup.bus_name = bus + "-twin";
+  twin_setup.limit_s = rec.family.empty() ? kTwinLimitS : kGeneratedTwinLimitS;
   twin_setup.timeline = &timeline;
   rec.twin = run_lift(twin_setup, nullptr);
   if (rec.disturbance == Disturbance::None) {
