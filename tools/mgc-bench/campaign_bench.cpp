@@ -1029,6 +1029,8 @@ int run_campaign_suite(const CampaignOptions& options) {
     if (options.lift >= 0) {
       const LiftRecord rec = run_campaign_lift(options, options.lift);
       std::printf("%s", lift_record_text(rec).c_str());
+      // Not in the record: without --out the folder differs from run to run.
+      if (!rec.family.empty()) std::fprintf(stderr, "mgc-bench: campaign: the site is %s\n", (std::filesystem::path(campaign_sites_dir(options)) / rec.site).c_str());
       return 0;
     }
     const auto wall0 = std::chrono::steady_clock::now();
