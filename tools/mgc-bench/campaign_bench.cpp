@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// The `campaign` suite of mgc-bench: randomized lifts on the shipped sites in stepped simulated
-// time, each drawn from its seed (the site, a feasible goal near the scenario's, at most one
+// The `campaign` suite of mgc-bench: randomized lifts on the shipped sites and on generated ones
+// (site_families.hpp) in stepped simulated time, each drawn from its seed (the site, a feasible
+// goal near the scenario's, at most one
 // disturbance: an intruding crane, truck or worker, or a sensing or bus fault during motion), run
 // beside its undisturbed twin and judged in the simulator's true state (sim::TruthMonitor and the
 // true joints), never in what the controller believes. docs/safety.md "The campaign" describes
