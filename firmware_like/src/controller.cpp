@@ -361,8 +361,24 @@ void Controller::estimate(const hal::SensorSnapshot& s, double dt_s) noexcept {
     rest = rest && std::abs(velocity_[k]) < config_.rest_speed;
   }
   for (int j = 0; j < n_; ++j) {
+    const planning::JointSpec& spec = model_->joints()[static_cast<std::size_t>(j)];
     const double q = q_unwrapped_[j];
-    q_wrapped_[j] = model_->joints()[static_cast<std::size_t>(j)].continuous ? std::remainder(q, kTwoPi) : q;
+    if (spec.continuous) {
+      q_wrapped_[j] = std::remainder(q, kTwoPi);
+      continue;
+    }
+    // A joint at its end stop reads a hair past it with encoder noise; the chart (whose last row
+    // may be the end stop) and the planner would take that for a pose outside their range. The
+    // true joint cannot be past its stop, so a reading within the tolerance counts as at the stop;
+    // one farther out is kept as read, for the plausibility checks to judge.
+    const double tolerance = spec.type == planning::JointType::Prismatic ? config_.end_stop_tolerance_m : config_.end_stop_tolerance_rad;
+    if (q > spec.position_max && q <= spec.position_max + tolerance) {
+      q_wrapped_[j] = spec.position_max;
+    } else if (q < spec.position_min && q >= spec.position_min - tolerance) {
+      q_wrapped_[j] = spec.position_min;
+    } else {
+      q_wrapped_[j] = q;
+    }
   }
   at_rest_ = have_reading_ && rest;
   have_reading_ = true;

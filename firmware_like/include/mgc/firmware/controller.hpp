@@ -48,6 +48,10 @@ struct ControllerConfig {
   //! machine trails the setpoint by that lag and the feedback alone brings it back, after it has
   //! run past a goal by about deceleration × lag / position gain. 0 turns the lead off. [s]
   double acceleration_lead_s = 0.15;
+  //! A reading at most this far past a joint's end stop is taken as at the stop (encoder noise at
+  //! a fully extended boom); farther out it is kept as read. [m] and [rad]
+  double end_stop_tolerance_m = 0.01;
+  double end_stop_tolerance_rad = 0.1 * 3.14159265358979323846 / 180.0;
   //! A joint whose estimated speed stays below this is at rest. [rad/s | m/s]
   double rest_speed = 0.005;
   //! Weight of a new velocity sample in the estimate's first-order filter (1: no filter). [-]
