@@ -410,6 +410,7 @@ struct CollisionWorld::Impl {
     //! The first obstacle added before this one with the very same parts (a copy of the same
     //! obstacle for another predicted time), -1 if none.
     int twin = -1;
+    bool named_twin = false;  //!< a later obstacle may name this one its twin
 
     void bound() noexcept {
       bounds = parts.front().object->getAABB();
@@ -677,6 +678,7 @@ int CollisionWorld::add_dynamic(DynamicObstacle obstacle) {
     const std::vector<ShapePart>& other = impl_->dynamic_shapes[d];
     if (other.size() == obstacle.parts.size() && std::equal(other.begin(), other.end(), obstacle.parts.begin(), same_part)) {
       dynamic.twin = static_cast<int>(d);
+      impl_->dynamics[d].named_twin = true;
     }
   }
   impl_->dynamic_shapes.push_back(obstacle.parts);
@@ -760,8 +762,12 @@ void CollisionWorld::set_dynamic_part_size(int index, int part, const Eigen::Vec
   }
   // Twins share every answer; a resized part makes this one a shape of its own.
   dynamic.twin = -1;
-  for (auto& other : impl_->dynamics) {
-    if (other.twin == index) other.twin = -1;
+  // Once untwinned, nothing names it again: a resize every cycle need not walk every obstacle.
+  if (dynamic.named_twin) {
+    for (auto& other : impl_->dynamics) {
+      if (other.twin == index) other.twin = -1;
+    }
+    dynamic.named_twin = false;
   }
   ++impl_->dynamic_epoch;
 }
