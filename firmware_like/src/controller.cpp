@@ -33,6 +33,8 @@ constexpr double kSiteApartM = 1e-3;
 //! Another machine whose body points move slower than this, and whose joints stop within as many
 //! seconds, is at rest. [m/s, s]
 constexpr double kSiteRestSpeedMS = 0.05;
+//! Above a distance bound, so that a gap reported at the bound is strictly beyond what matters. [m]
+constexpr double kSiteBoundSlackM = 1e-6;
 //! An alert stays raised this long after its condition was last seen. [µs]
 constexpr std::int64_t kAlertHoldUs = 1'000'000;
 
@@ -1279,7 +1281,7 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
 }
 
 double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
-                              const planning::JointVector& my_q) noexcept {
+                              const planning::JointVector& my_q, double bound_m) noexcept {
   p.model->forward_kinematics(peer_q, p.kinematics);
   for (std::size_t k = 0; k < p.moving_bodies.size(); ++k) {
     const auto b = static_cast<std::size_t>(p.moving_bodies[k]);
@@ -1290,7 +1292,11 @@ double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& pee
     p.meet_world->set_dynamic_part_size(static_cast<int>(k), 0, grown);
     p.meet_world->set_dynamic_pose(static_cast<int>(k), body.world_from_body);
   }
-  return p.meet_world->clearance(my_q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
+  if (!std::isfinite(bound_m)) {
+    return p.meet_world->clearance(my_q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
+  }
+  p.nearest = p.meet_world->nearest_below(my_q, planning::CollisionWorld::Bodies::All, 0.0, bound_m, &p.nearest);
+  return p.nearest.dynamic_obstacle.distance_m;
 }
 
 void Controller::site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept {
@@ -1308,11 +1314,19 @@ void Controller::site_pose_copy(SitePeerModel& p, int copy, const planning::Join
     escape_world_->set_dynamic_part_size(index, 0, grown);
     escape_world_->set_dynamic_pose(index, body.world_from_body);
   }
+  p.parked_from = std::max(p.parked_from, copy + 1);
+  if (copy >= 1) p.plan_posed = false;
 }
 
 void Controller::site_park(SitePeerModel& p, int from_copy) noexcept {
   const int moving = static_cast<int>(p.moving_bodies.size());
-  for (int c = from_copy; c < site_->plan_copies; ++c) {
+  // A parked copy stays where it was parked until it is posed: a lower-priority machine's copies
+  // are set once, not every cycle.
+  const int until = std::min(p.parked_from, site_->plan_copies);
+  if (from_copy >= until) return;
+  p.parked_from = from_copy;
+  p.plan_posed = false;
+  for (int c = from_copy; c < until; ++c) {
     for (int k = 0; k < moving; ++k) {
       const Eigen::Isometry3d parked = site_parked_pose(p.roster_index, c, k);
       plan_world_->set_dynamic_pose(p.world_first + c * moving + k, parked);
@@ -1427,7 +1441,7 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
         continue;
       }
       const double grow_m = peer_reach_m + p.max_point_speed_m_s * (static_cast<double>(age_us) * 1e-6 + skew_s);
-      const double gap_m = site_gap_m(p, p.q, grow_m, q_wrapped_) - my_reach_m;
+      const double gap_m = site_gap_m(p, p.q, grow_m, q_wrapped_, margin_m + my_reach_m + kSiteBoundSlackM) - my_reach_m;
       stale_stop = stale_stop || gap_m <= margin_m;
       if (!planning_now) {
         site_pose_copy(p, 0, p.q, grow_m);
@@ -1472,7 +1486,13 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
       if (tau_s == 0.0) between_m += peer_speed_m_s * step_s;
       for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, tau_s);
       const double start_m = at_rest ? start_reach_m(t0_s + tau_s + skew_s) : 0.0;
-      const double gap_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_) - my_reach_at(tau_s);
+      // Only a distance that can matter is measured: within the stop margin of my stop travel's
+      // reach, and at the first sample within what both machines' speed bounds can close over the
+      // horizon. Beyond it the bounding boxes alone show the machine clear: no narrow phase.
+      const double reach_m = my_reach_at(tau_s);
+      const double matters_m = tau_s == 0.0 ? margin_m + horizon_s * (my_bound_m_s + p.max_point_speed_m_s) + my_reach_at(horizon_s)
+                                            : margin_m + reach_m;
+      const double gap_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_, matters_m + kSiteBoundSlackM) - reach_m;
       if (tau_s == 0.0) {
         stats_.site_min_gap_m = std::min(stats_.site_min_gap_m, gap_m);
         // Nothing either can do within the horizon closes a gap this wide.
@@ -1504,10 +1524,16 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
         const int copies = site_->plan_copies - 1;
         // At their own size: grown to cover the sweep between them they would lie on my carrier,
         // which that machine planned round, and leave me no start. What passes between two copies
-        // is the meet scan's to stop.
-        for (int c = 1; c <= copies; ++c) {
-          site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c) / copies, site_q2_);
-          site_pose_copy(p, c, site_q2_, 0.0);
+        // is the meet scan's to stop. They depend on the plan and where along it the machine is,
+        // nothing else: set again only when either changes (a new state of a moving machine).
+        if (!(p.plan_posed && p.plan_posed_from_s == from_s && site_same_motion(p.plan_posed_from, m.plan))) {
+          for (int c = 1; c <= copies; ++c) {
+            site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c) / copies, site_q2_);
+            site_pose_copy(p, c, site_q2_, 0.0);
+          }
+          p.plan_posed = true;
+          p.plan_posed_from_s = from_s;
+          p.plan_posed_from = m.plan;
         }
       } else {
         for (int j = 0; j < nq; ++j) site_q2_[j] = p.q[j] + m.state.stop_travel[static_cast<std::size_t>(j)];

@@ -115,11 +115,26 @@ std::vector<SitePeerModel> make_site_peers(const SiteMemberConfig& config, const
     for (int kb = 0; kb < static_cast<int>(p.moving_bodies.size()); ++kb) {
       p.meet_world->set_dynamic_pose(kb, site_parked_pose(static_cast<int>(i), 0, kb));
     }
+    // Nothing known parked yet: the first park sets every copy.
+    p.parked_from = config.plan_copies;
     p.world_first = next;
     next += config.plan_copies * static_cast<int>(p.moving_bodies.size());
     peers.push_back(std::move(p));
   }
   return peers;
+}
+
+bool site_same_motion(const site_plan_t& a, const site_plan_t& b) noexcept {
+  if (a.num_joints != b.num_joints || a.num_waypoints != b.num_waypoints) return false;
+  const int n = std::clamp<int>(a.num_joints, 0, site_plan_t::MAX_JOINTS);
+  const int w = std::clamp<int>(a.num_waypoints, 0, site_plan_t::MAX_WAYPOINTS);
+  for (int i = 0; i < w; ++i) {
+    if (a.waypoint_time_s[i] != b.waypoint_time_s[i]) return false;
+    for (int j = 0; j < n; ++j) {
+      if (a.positions[i][j] != b.positions[i][j]) return false;
+    }
+  }
+  return true;
 }
 
 void site_plan_at(const site_plan_t& plan, double t_s, planning::JointVector& q) noexcept {

@@ -318,12 +318,15 @@ class Controller {
                              bool watchdog_tripped, const SiteInputs* site) noexcept;
   //! The site rules for this cycle: decision, speed factor, safety stop, peers posed.
   void site_cycle(const SiteInputs& in) noexcept;
-  //! Gap from my stopping envelope at my_q (grown by my_reach_m) to peer p posed at q in its meet world,
-  //! each body grown by grow_m. [m]
+  //! Distance from me at my_q to peer p posed at peer_q in its meet world, each body grown by grow_m,
+  //! when it is below bound_m; bound_m when nothing is nearer (found from bounding boxes, no
+  //! narrow phase for pairs they show no nearer). The distance is clearance()'s either way. [m]
   [[nodiscard]] double site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
-                                  const planning::JointVector& my_q) noexcept;
+                                  const planning::JointVector& my_q,
+                                  double bound_m = std::numeric_limits<double>::infinity()) noexcept;
   //! Poses peer p's moving bodies at q as copy c in the planning and escape worlds, grown by grow_m.
   void site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept;
+  //! Parks peer p's copies from from_copy on; those already parked are not touched again.
   void site_park(SitePeerModel& p, int from_copy) noexcept;
   void site_fill_state(const guidance::SupervisorOutput& out) noexcept;
   void site_fill_plan() noexcept;

@@ -74,7 +74,20 @@ struct SitePeerModel {
   int world_first = -1;  //!< first of its dynamic obstacles in the planning worlds: copy c, body k at world_first + c * moving + k
   planning::Kinematics kinematics{};
   planning::JointVector q;  //!< scratch [rad | m]
+  //! The meet world's nearest pair of the last query, measured first in the next: it lowers the
+  //! bound early and changes only the cost.
+  planning::CollisionWorld::NearestBelow nearest{};
+  // What its copies in the planning worlds hold, so that a copy is set only when what it shows
+  // changes (the worlds hold them as set; the loop alone sets them).
+  int parked_from = 0;        //!< copies from this one on are parked (set by make_site_peers)
+  bool plan_posed = false;    //!< copies 1.. hold plan_posed_from at plan_posed_from_s on
+  double plan_posed_from_s = 0.0;  //!< [s]
+  site_plan_t plan_posed_from{};
 };
+
+//! Whether two plans move a machine the same way: the same joints, waypoints and times (what
+//! site_plan_at() reads), whatever their ids, sequences or MACs. RT-safe.
+[[nodiscard]] bool site_same_motion(const site_plan_t& a, const site_plan_t& b) noexcept;
 
 //! Builds the other machines' models and meet worlds for my_model. Start-up only.
 [[nodiscard]] std::vector<SitePeerModel> make_site_peers(const SiteMemberConfig& config, const planning::MachineModel& my_model,
