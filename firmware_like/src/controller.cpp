@@ -1034,8 +1034,10 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
   fill_snapshot(s, out);
   fill_snapshot_obstacles();
   if (site_) {
-    site_fill_state(out);
+    // The plan first: the state of the cycle that takes up a new plan names it, so the two can go
+    // out together and the others predict this machine by it from their next cycle on.
     site_fill_plan();
+    site_fill_state(out);
   }
 
   ControllerOutput result;

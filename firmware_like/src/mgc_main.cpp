@@ -375,19 +375,24 @@ int main(int argc, char** argv) {
                                                        : controller.step(s, step_dt_us, cmd, watchdog_tripped);
       if (site_channel) {
         // The state at 20 Hz on the loop's grid, the plan when it changes and again every second.
+        // A changed plan goes out with a state of the same cycle, which names it, the plan first.
         // Not before the machine's pose is known (INIT): a state of zeros is no pose, and the
         // others keep treating this machine as never heard until then.
         const bool pose_known = controller.supervisor().state() != guidance::SupervisorState::Init;
-        if (pose_known && timing.start_us >= next_site_state_us) {
-          (void)site_channel->post_state(controller.site_state());
-          next_site_state_us = std::max(next_site_state_us + firmware::kSiteStatePeriod_us, timing.start_us);
-        }
         const std::uint64_t version = controller.site_plan_version();
+        bool plan_changed = false;
         if (version > 0 && (version != site_plan_version_posted || timing.start_us - site_plan_posted_us >= firmware::kSitePlanPeriod_us)) {
           if (site_channel->post_plan(controller.site_plan())) {
+            plan_changed = version != site_plan_version_posted;
             site_plan_version_posted = version;
             site_plan_posted_us = timing.start_us;
           }
+        }
+        if (pose_known && timing.start_us >= next_site_state_us) {
+          (void)site_channel->post_state(controller.site_state());
+          next_site_state_us = std::max(next_site_state_us + firmware::kSiteStatePeriod_us, timing.start_us);
+        } else if (pose_known && plan_changed) {
+          (void)site_channel->post_state(controller.site_state());
         }
       }
       if (out.start_nodes) (void)hal.send_nmt(hal::canopen::NmtCommand::Start, 0);

@@ -52,17 +52,7 @@ void SiteChannel::publish_bytes(const char* channel_name, const std::uint8_t* da
 }
 
 void SiteChannel::run_once(int timeout_ms) {
-  while (states_out_.try_pop(out_state_)) {
-    out_state_.utime = config_.monotonic_us();
-    out_state_.sequence = ++state_sequence_;
-    out_state_.sender_time_us = config_.realtime_us();
-    sign_site_state(out_state_, key_);
-    const int len = out_state_.encode(sent_states_.slot(), 0, 512);
-    if (len <= 0) continue;
-    publish_bytes(channel::kSiteState, sent_states_.slot(), len);
-    sent_states_.commit(len);
-    counters_.states_published.fetch_add(1, std::memory_order_relaxed);
-  }
+  // Plans before states: a state that names a new plan posted with it follows the plan.
   while (plans_out_.try_pop(out_plan_)) {
     out_plan_.utime = config_.monotonic_us();
     out_plan_.sequence = ++plan_sequence_;
@@ -73,6 +63,17 @@ void SiteChannel::run_once(int timeout_ms) {
     publish_bytes(channel::kSitePlan, sent_plans_.slot(), len);
     sent_plans_.commit(len);
     counters_.plans_published.fetch_add(1, std::memory_order_relaxed);
+  }
+  while (states_out_.try_pop(out_state_)) {
+    out_state_.utime = config_.monotonic_us();
+    out_state_.sequence = ++state_sequence_;
+    out_state_.sender_time_us = config_.realtime_us();
+    sign_site_state(out_state_, key_);
+    const int len = out_state_.encode(sent_states_.slot(), 0, 512);
+    if (len <= 0) continue;
+    publish_bytes(channel::kSiteState, sent_states_.slot(), len);
+    sent_states_.commit(len);
+    counters_.states_published.fetch_add(1, std::memory_order_relaxed);
   }
   // handleTimeout, never handle(): stop() must be able to end the thread within one timeout.
   lcm_.handleTimeout(timeout_ms);

@@ -182,18 +182,10 @@ void SiteRig::publish(std::size_t i) {
     m.state_sequence = real_us;
     m.plan_sequence = real_us;
   }
-  if (now_us % firmware::kSiteStatePeriod_us == 0) {
-    site_state_t msg = m.controller->site_state();
-    msg.utime = now_us;
-    msg.sequence = ++m.state_sequence;
-    msg.sender_time_us = real_us;
-    firmware::sign_site_state(msg, key_);
-    last_state_[i] = encode(msg);
-    ++m.states_sent;
-    send(i, false, last_state_[i]);
-  }
+  // A changed plan goes out with a state of the same cycle, which names it, the plan first.
   const std::uint64_t version = m.controller->site_plan_version();
-  if (version > 0 && (version != m.plan_version_sent || now_us - m.plan_sent_us >= firmware::kSitePlanPeriod_us)) {
+  const bool plan_changed = version > 0 && version != m.plan_version_sent;
+  if (plan_changed || (version > 0 && now_us - m.plan_sent_us >= firmware::kSitePlanPeriod_us)) {
     site_plan_t msg = m.controller->site_plan();
     msg.utime = now_us;
     msg.sequence = ++m.plan_sequence;
@@ -203,6 +195,16 @@ void SiteRig::publish(std::size_t i) {
     m.plan_sent_us = now_us;
     ++m.plans_sent;
     send(i, true, encode(msg));
+  }
+  if (plan_changed || now_us % firmware::kSiteStatePeriod_us == 0) {
+    site_state_t msg = m.controller->site_state();
+    msg.utime = now_us;
+    msg.sequence = ++m.state_sequence;
+    msg.sender_time_us = real_us;
+    firmware::sign_site_state(msg, key_);
+    last_state_[i] = encode(msg);
+    ++m.states_sent;
+    send(i, false, last_state_[i]);
   }
 }
 

@@ -279,3 +279,51 @@ TEST_CASE("no standoff: a machine held at rest carries its way forward from rest
   // Done well before the limit: no long wait on either side.
   CHECK(rig.sim_s() < 200.0);
 }
+
+TEST_CASE("a new plan goes out with a state that names it: the other member predicts by it in the cycle both arrive", "[site][sim][takeup]") {
+  sim::SiteRigConfig config;
+  config.lift_start_s = {0.0, 0.0};
+  sim::SiteRig rig(crossing_site(), config, "take-up");
+  std::vector<sim::SiteRigMember>& members = rig.members();
+  REQUIRE(members.size() == 2);
+  std::int32_t published[2] = {0, 0};
+  std::uint64_t states_before[2] = {0, 0};
+  std::int32_t awaited[2] = {0, 0};  // per sender, the new plan id the other must predict by this cycle
+  int new_plans = 0;
+  int taken_up = 0;
+  // 30 s: both first plans, the TMS870 stopped for the tower crane and its re-plans (some 10 s in).
+  while (rig.sim_s() < 30.0) {
+    for (std::size_t s = 0; s < 2; ++s) states_before[s] = members[s].states_sent;
+    rig.run_until(rig.sim_s() + 0.005);
+    for (std::size_t s = 0; s < 2; ++s) {
+      const std::size_t rx = 1 - s;
+      const firmware::Controller& receiver = *members[rx].controller;
+      const int k = members[rx].verifier->roster().index_of(members[s].machine_id);
+      REQUIRE(k >= 0);
+      if (awaited[s] != 0) {
+        // Delivered at the top of this cycle, both of them, and used by this cycle's step.
+        const firmware::SitePeerMessages& peer = members[rx].inputs.peers[static_cast<std::size_t>(k)];
+        CAPTURE(members[s].machine_id, awaited[s], rig.sim_s());
+        CHECK(peer.plan.plan_id == awaited[s]);
+        CHECK(peer.state.plan_id == awaited[s]);
+        CHECK(receiver.site_decision().peers[static_cast<std::size_t>(k)].prediction == firmware::SitePrediction::Plan);
+        ++taken_up;
+        awaited[s] = 0;
+      }
+      const firmware::Controller& sender = *members[s].controller;
+      if (sender.site_plan_version() > 0 && sender.site_plan().plan_id != published[s]) {
+        published[s] = sender.site_plan().plan_id;
+        ++new_plans;
+        CAPTURE(members[s].machine_id, published[s], rig.sim_s());
+        // The state of the same cycle names it and went out with it, off the 50 ms grid or on it.
+        CHECK(sender.site_state().plan_id == published[s]);
+        CHECK(members[s].states_sent == states_before[s] + 1);
+        awaited[s] = published[s];
+      }
+    }
+  }
+  INFO(summary(rig));
+  // The two first plans and at least one re-plan of the TMS870 round the tower crane.
+  CHECK(new_plans >= 3);
+  CHECK(taken_up == new_plans);
+}
