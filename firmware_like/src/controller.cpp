@@ -204,7 +204,8 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
       model_(planning::build_model(scenario_)),
       plan_world_(planning_world(scenario_, *model_, config_.planning_margin_m,
                                  config.obstacle_speed_floor_m_s * longest_stop_s(*model_))),
-      safety_world_(planning::build_world(scenario_, *model_)),
+      safety_world_(planning::build_world(site != nullptr ? site_stop_check_scenario(scenario_, scenario.dynamic_obstacles.size()) : scenario_,
+                                          *model_)),
       problem_(planning::planning_problem(scenario_, *model_, *plan_world_)),
       replanner_(planning::make_replanner(config.replanner)),
       spare_problem_(problem_),
@@ -1282,9 +1283,39 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
   }
 }
 
+double Controller::site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m) const noexcept {
+  // A body's box in the world: its centre, and |R| times its half extents (a capsule's along z
+  // with its caps), as the collision worlds shape it: mine undilated, the other's grown.
+  const auto world_half = [](const planning::BodyState& b, bool box, double floor_m, double by_m) {
+    const Eigen::Vector3d size = b.size_m.cwiseMax(Eigen::Vector3d::Constant(floor_m));
+    const Eigen::Vector3d half = box ? Eigen::Vector3d(0.5 * size + Eigen::Vector3d::Constant(by_m))
+                                     : Eigen::Vector3d(0.5 * size.x() + by_m, 0.5 * size.x() + by_m, 0.5 * size.z() + 0.5 * size.x() + by_m);
+    return Eigen::Vector3d(b.world_from_body.linear().cwiseAbs() * half);
+  };
+  double least_sq = std::numeric_limits<double>::infinity();
+  const std::size_t mine = model_->bodies().size();
+  for (const int pb : p.moving_bodies) {
+    const auto b = static_cast<std::size_t>(pb);
+    const planning::BodyState& other = p.kinematics.bodies[b];
+    const Eigen::Vector3d other_half = world_half(other, p.model->bodies()[b].shape == planning::BodyShape::Box, 0.01, grow_m);
+    for (std::size_t k = 0; k < mine; ++k) {
+      const planning::BodyState& body = me.bodies[k];
+      const Eigen::Vector3d half = world_half(body, model_->bodies()[k].shape == planning::BodyShape::Box, 0.0, 0.0);
+      const Eigen::Vector3d apart = ((other.world_from_body.translation() - body.world_from_body.translation()).cwiseAbs() - half - other_half)
+                                        .cwiseMax(0.0);
+      least_sq = std::min(least_sq, apart.squaredNorm());
+    }
+  }
+  return std::sqrt(least_sq);
+}
+
 double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
-                              const planning::JointVector& my_q, double bound_m) noexcept {
+                              const planning::JointVector& my_q, double bound_m, const planning::Kinematics* me) noexcept {
   p.model->forward_kinematics(peer_q, p.kinematics);
+  if (me != nullptr && std::isfinite(bound_m)) {
+    const double apart_m = site_apart_m(p, *me, grow_m);
+    if (apart_m >= bound_m) return apart_m;
+  }
   for (std::size_t k = 0; k < p.moving_bodies.size(); ++k) {
     const auto b = static_cast<std::size_t>(p.moving_bodies[k]);
     const planning::BodyState& body = p.kinematics.bodies[b];
@@ -1407,6 +1438,7 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
   };
   const bool planning_now = supervisor_.state() == guidance::SupervisorState::Planning ||
                             supervisor_.state() == guidance::SupervisorState::Replanning;
+  model_->forward_kinematics(q_wrapped_, site_kin_);
   bool stale_stop = false;
   site_stale_ = false;
   site_alert_id_ = 0;
@@ -1443,7 +1475,7 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
         continue;
       }
       const double grow_m = peer_reach_m + p.max_point_speed_m_s * (static_cast<double>(age_us) * 1e-6 + skew_s);
-      const double gap_m = site_gap_m(p, p.q, grow_m, q_wrapped_, margin_m + my_reach_m + kSiteBoundSlackM) - my_reach_m;
+      const double gap_m = site_gap_m(p, p.q, grow_m, q_wrapped_, margin_m + my_reach_m + kSiteBoundSlackM, &site_kin_) - my_reach_m;
       stale_stop = stale_stop || gap_m <= margin_m;
       if (!planning_now) {
         site_pose_copy(p, 0, p.q, grow_m);
@@ -1494,7 +1526,10 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
       const double reach_m = my_reach_at(tau_s);
       const double matters_m = tau_s == 0.0 ? margin_m + horizon_s * (my_bound_m_s + p.max_point_speed_m_s) + my_reach_at(horizon_s)
                                             : margin_m + reach_m;
-      const double gap_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_, matters_m + kSiteBoundSlackM) - reach_m;
+      // At the first sample I stand where I am: the boxes of my bodies there are compared first.
+      const double gap_m = tau_s == 0.0
+                               ? site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, q_wrapped_, matters_m + kSiteBoundSlackM, &site_kin_) - reach_m
+                               : site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_, matters_m + kSiteBoundSlackM) - reach_m;
       if (tau_s == 0.0) {
         stats_.site_min_gap_m = std::min(stats_.site_min_gap_m, gap_m);
         // Nothing either can do within the horizon closes a gap this wide.

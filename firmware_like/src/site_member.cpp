@@ -88,6 +88,11 @@ planning::Scenario site_member_scenario(const planning::Scenario& lift, const Si
   return s;
 }
 
+planning::Scenario site_stop_check_scenario(planning::Scenario member, std::size_t own_dynamic) {
+  if (member.dynamic_obstacles.size() > own_dynamic) member.dynamic_obstacles.resize(own_dynamic);
+  return member;
+}
+
 std::vector<SitePeerModel> make_site_peers(const SiteMemberConfig& config, const planning::MachineModel& my_model, int first_dynamic) {
   const std::size_t me = my_index(config);
   const SiteRoster roster = make_site_roster(config.site);

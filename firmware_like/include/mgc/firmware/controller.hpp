@@ -319,11 +319,16 @@ class Controller {
   //! The site rules for this cycle: decision, speed factor, safety stop, peers posed.
   void site_cycle(const SiteInputs& in) noexcept;
   //! Distance from me at my_q to peer p posed at peer_q in its meet world, each body grown by grow_m,
-  //! when it is below bound_m; bound_m when nothing is nearer (found from bounding boxes, no
-  //! narrow phase for pairs they show no nearer). The distance is clearance()'s either way. [m]
+  //! when it is below bound_m (clearance()'s); when nothing is nearer, a lower bound of it at least
+  //! bound_m, from bounding boxes alone. me, if given, is my kinematics at my_q: the bodies' world
+  //! boxes are compared first, and a machine they show beyond the bound costs no meet-world query.
   [[nodiscard]] double site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
                                   const planning::JointVector& my_q,
-                                  double bound_m = std::numeric_limits<double>::infinity()) noexcept;
+                                  double bound_m = std::numeric_limits<double>::infinity(),
+                                  const planning::Kinematics* me = nullptr) noexcept;
+  //! The least distance between the world boxes of my bodies (me) and of p's moving bodies as posed
+  //! in p.kinematics, each grown by grow_m: never more than the distance between the bodies. [m]
+  [[nodiscard]] double site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m) const noexcept;
   //! Poses peer p's moving bodies at q as copy c in the planning and escape worlds, grown by grow_m.
   void site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept;
   //! Parks peer p's copies from from_copy on; those already parked are not touched again.
@@ -492,6 +497,7 @@ class Controller {
   planning::JointVector site_q_;   //!< scratch [rad | m]
   planning::JointVector site_q2_;  //!< scratch [rad | m]
   planning::JointVector site_v_;   //!< my velocity as the scan carries it forward [rad/s | m/s]
+  planning::Kinematics site_kin_{};  //!< mine at this cycle's position, for the meet scan's box test
 };
 
 }  // namespace mgc::firmware

@@ -61,6 +61,12 @@ struct SiteMemberConfig {
 //! in the site or a model cannot be built).
 [[nodiscard]] planning::Scenario site_member_scenario(const planning::Scenario& lift, const SiteMemberConfig& config);
 
+//! The scenario of a member's stop check: member (site_member_scenario()'s) without the other
+//! machines' moving-body copies, which only the planning worlds pose; parked in the stop check's
+//! world they would change no answer and cost every query. own_dynamic: the lift scenario's own
+//! dynamic obstacles, which come first. Start-up only.
+[[nodiscard]] planning::Scenario site_stop_check_scenario(planning::Scenario member, std::size_t own_dynamic);
+
 //! One other machine's model and the worlds it is measured in. Start-up builds it; the loop poses it.
 struct SitePeerModel {
   int roster_index = -1;
