@@ -838,6 +838,7 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
     run_safety();
     predict_approach();
   }
+  site_worlds_due_ = false;
   if (site_ && site != nullptr && have_reading_) site_cycle(*site);
 
   // The sensors and the valve against the previous cycle's command, which the valve applies now.
@@ -978,6 +979,16 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
     stats_.min_envelope_m = std::min(stats_.min_envelope_m, envelope_result_.nearest.distance_m);
   }
 
+  // A plan or a repair that starts (or a path taken) this cycle reads the planning worlds: the
+  // other machines are posed in them now, from this cycle's inputs, unless one was being computed
+  // when the cycle began. No other cycle reads them, so no other cycle poses them.
+  if (site_ && site != nullptr && site_worlds_due_) {
+    const bool planning_after = out.state == guidance::SupervisorState::Planning || out.state == guidance::SupervisorState::Replanning;
+    if (out.plan_request != guidance::PlanRequest::None || planning_after ||
+        (planner_status_ == planning::PlannerStatus::Solved && !path_taken_)) {
+      site_pose_worlds(*site);
+    }
+  }
   handle_plan_request(out);
 
   envelope_slowing_ = false;
@@ -1333,6 +1344,7 @@ double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& pee
 }
 
 void Controller::site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept {
+  if (copy < 0 || copy >= p.copies) return;
   p.model->forward_kinematics(q, p.kinematics);
   const int moving = static_cast<int>(p.moving_bodies.size());
   for (int k = 0; k < moving; ++k) {
@@ -1355,7 +1367,7 @@ void Controller::site_park(SitePeerModel& p, int from_copy) noexcept {
   const int moving = static_cast<int>(p.moving_bodies.size());
   // A parked copy stays where it was parked until it is posed: a lower-priority machine's copies
   // are set once, not every cycle.
-  const int until = std::min(p.parked_from, site_->plan_copies);
+  const int until = std::min(p.parked_from, p.copies);
   if (from_copy >= until) return;
   p.parked_from = from_copy;
   p.plan_posed = false;
@@ -1477,10 +1489,6 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
       const double grow_m = peer_reach_m + p.max_point_speed_m_s * (static_cast<double>(age_us) * 1e-6 + skew_s);
       const double gap_m = site_gap_m(p, p.q, grow_m, q_wrapped_, margin_m + my_reach_m + kSiteBoundSlackM, &site_kin_) - my_reach_m;
       stale_stop = stale_stop || gap_m <= margin_m;
-      if (!planning_now) {
-        site_pose_copy(p, 0, p.q, grow_m);
-        site_park(p, 1);
-      }
       continue;
     }
     const double t0_s = static_cast<double>(age_us) * 1e-6;
@@ -1549,38 +1557,10 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
     }
     pin.meet_in_s = meet_s;
     site_meet_s_[r] = meet_s;
-    if (planning_now) continue;
-    // A higher-priority machine is planned around: its pose and its plan's remaining sweep. A
-    // lower-priority one is not.
-    if (m.state.priority < site_priority_) {
-      site_pose_copy(p, 0, p.q, peer_reach_m + peer_speed_m_s * (t0_s + skew_s));
-      if (uses_plan) {
-        const int w = std::clamp<int>(m.plan.num_waypoints, 2, site_plan_t::MAX_WAYPOINTS);
-        const double from_s = m.state.plan_time_s;
-        const double to_s = m.plan.waypoint_time_s[w - 1];
-        const int copies = site_->plan_copies - 1;
-        // At their own size: grown to cover the sweep between them they would lie on my carrier,
-        // which that machine planned round, and leave me no start. What passes between two copies
-        // is the meet scan's to stop. They depend on the plan and where along it the machine is,
-        // nothing else: set again only when either changes (a new state of a moving machine).
-        if (!(p.plan_posed && p.plan_posed_from_s == from_s && site_same_motion(p.plan_posed_from, m.plan))) {
-          for (int c = 1; c <= copies; ++c) {
-            site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c) / copies, site_q2_);
-            site_pose_copy(p, c, site_q2_, 0.0);
-          }
-          p.plan_posed = true;
-          p.plan_posed_from_s = from_s;
-          p.plan_posed_from = m.plan;
-        }
-      } else {
-        for (int j = 0; j < nq; ++j) site_q2_[j] = p.q[j] + m.state.stop_travel[static_cast<std::size_t>(j)];
-        site_pose_copy(p, 1, site_q2_, peer_speed_m_s * (t0_s + skew_s));
-        site_park(p, 2);
-      }
-    } else {
-      site_park(p, 0);
-    }
   }
+  // The planning worlds are posed from these inputs when a plan or a repair starts this cycle
+  // (site_pose_worlds()), never while one is being computed.
+  site_worlds_due_ = !planning_now;
   site_decision_ = decide_site(site_roster_, site_->machine_id,
                                std::span<const SitePeerInput>(site_in_.data(), site_roster_.count), now_us_, rules);
   SiteMotion motion = site_decision_.motion;
@@ -1620,6 +1600,64 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
   }
   site_replan_ = replan && following_ && supervisor_.state() == guidance::SupervisorState::Executing;
   if (site_replan_) ++stats_.site_replans;
+}
+
+void Controller::site_pose_worlds(const SiteInputs& in) noexcept {
+  const SiteRulesConfig& rules = site_->rules;
+  const double skew_s = static_cast<double>(rules.max_skew_us) * 1e-6;
+  for (SitePeerModel& p : site_peers_) {
+    const SitePeerMessages& m = in.peers[static_cast<std::size_t>(p.roster_index)];
+    // A machine never heard is parked by site_cycle(), every cycle.
+    if (!m.has_state) continue;
+    const std::int64_t age_us = now_us_ - m.state_received_us;
+    const int nq = std::min<int>(m.state.num_joints, p.model->dof());
+    double peer_speed_m_s = 0.0;
+    double peer_reach_m = 0.0;
+    for (int j = 0; j < nq; ++j) {
+      const auto k = static_cast<std::size_t>(j);
+      p.q[j] = m.state.joint_position[k];
+      peer_speed_m_s += p.model->displacement_bound(j) * std::abs(m.state.joint_velocity[k]);
+      peer_reach_m += p.model->displacement_bound(j) * std::abs(m.state.stop_travel[k]);
+    }
+    if (age_us > rules.stale_after_us()) {
+      // Stale: its frozen pose, grown as site_cycle() measures it.
+      site_pose_copy(p, 0, p.q, peer_reach_m + p.max_point_speed_m_s * (static_cast<double>(age_us) * 1e-6 + skew_s));
+      site_park(p, 1);
+      continue;
+    }
+    const double t0_s = static_cast<double>(age_us) * 1e-6;
+    const bool uses_plan = m.state.plan_id != 0 && m.has_plan && m.plan.plan_id == m.state.plan_id;
+    // A higher-priority machine is planned around: its pose and its plan's remaining sweep. A
+    // lower-priority one is not.
+    if (p.higher) {
+      site_pose_copy(p, 0, p.q, peer_reach_m + peer_speed_m_s * (t0_s + skew_s));
+      if (uses_plan) {
+        const int w = std::clamp<int>(m.plan.num_waypoints, 2, site_plan_t::MAX_WAYPOINTS);
+        const double from_s = m.state.plan_time_s;
+        const double to_s = m.plan.waypoint_time_s[w - 1];
+        const int copies = site_->plan_copies - 1;
+        // At their own size: grown to cover the sweep between them they would lie on my carrier,
+        // which that machine planned round, and leave me no start. What passes between two copies
+        // is the meet scan's to stop. They depend on the plan and where along it the machine is,
+        // nothing else: set again only when either changes (a new state of a moving machine).
+        if (!(p.plan_posed && p.plan_posed_from_s == from_s && site_same_motion(p.plan_posed_from, m.plan))) {
+          for (int c = 1; c <= copies; ++c) {
+            site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c) / copies, site_q2_);
+            site_pose_copy(p, c, site_q2_, 0.0);
+          }
+          p.plan_posed = true;
+          p.plan_posed_from_s = from_s;
+          p.plan_posed_from = m.plan;
+        }
+      } else {
+        for (int j = 0; j < nq; ++j) site_q2_[j] = p.q[j] + m.state.stop_travel[static_cast<std::size_t>(j)];
+        site_pose_copy(p, 1, site_q2_, peer_speed_m_s * (t0_s + skew_s));
+        site_park(p, 2);
+      }
+    } else {
+      site_park(p, 0);
+    }
+  }
 }
 
 void Controller::site_fill_state(const guidance::SupervisorOutput& out) noexcept {

@@ -34,6 +34,11 @@ planning::ShapePart body_part(const planning::BodySpec& spec, const planning::Bo
 }
 
 //! Which of model's bodies move with its joints, by the collision world's own finding.
+//! How many copies of machine i's moving bodies my planning worlds hold (SitePeerModel::copies).
+int copies_of(const SiteMemberConfig& config, std::size_t me, std::size_t i) {
+  return config.site.machines[i].priority < config.site.machines[me].priority ? config.plan_copies : 1;
+}
+
 std::vector<int> moving_bodies(const planning::MachineModel& model) {
   planning::CollisionWorld world(model, 0.0);
   world.finalize();
@@ -72,7 +77,7 @@ planning::Scenario site_member_scenario(const planning::Scenario& lift, const Si
       o.shape.pose = k.bodies[static_cast<std::size_t>(b)].world_from_body;
       s.obstacles.push_back(std::move(o));
     }
-    for (int c = 0; c < config.plan_copies; ++c) {
+    for (int c = 0; c < copies_of(config, me, i); ++c) {
       for (std::size_t kb = 0; kb < moving.size(); ++kb) {
         const int b = moving[kb];
         planning::DynamicObstacleSpec d;
@@ -120,10 +125,12 @@ std::vector<SitePeerModel> make_site_peers(const SiteMemberConfig& config, const
     for (int kb = 0; kb < static_cast<int>(p.moving_bodies.size()); ++kb) {
       p.meet_world->set_dynamic_pose(kb, site_parked_pose(static_cast<int>(i), 0, kb));
     }
+    p.higher = config.site.machines[i].priority < config.site.machines[me].priority;
+    p.copies = copies_of(config, me, i);
     // Nothing known parked yet: the first park sets every copy.
-    p.parked_from = config.plan_copies;
+    p.parked_from = p.copies;
     p.world_first = next;
-    next += config.plan_copies * static_cast<int>(p.moving_bodies.size());
+    next += p.copies * static_cast<int>(p.moving_bodies.size());
     peers.push_back(std::move(p));
   }
   return peers;

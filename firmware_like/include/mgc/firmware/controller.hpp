@@ -329,6 +329,9 @@ class Controller {
   //! The least distance between the world boxes of my bodies (me) and of p's moving bodies as posed
   //! in p.kinematics, each grown by grow_m: never more than the distance between the bodies. [m]
   [[nodiscard]] double site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m) const noexcept;
+  //! The other machines in the planning and escape worlds, from the cycle's inputs: a higher-priority
+  //! machine at its pose and along its plan, a lower one parked, a stale one at its grown frozen pose.
+  void site_pose_worlds(const SiteInputs& in) noexcept;
   //! Poses peer p's moving bodies at q as copy c in the planning and escape worlds, grown by grow_m.
   void site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept;
   //! Parks peer p's copies from from_copy on; those already parked are not touched again.
@@ -486,6 +489,7 @@ class Controller {
   bool site_was_stale_ = false;   //!< the same, the cycle before
   std::int64_t site_wait_since_us_ = 0;  //!< since when a higher-priority machine keeps me stopped [µs]
   bool site_replan_ = false;      //!< stop for a higher-priority machine: the supervisor re-plans
+  bool site_worlds_due_ = false;  //!< no plan was being computed as the cycle began: the worlds may be posed
   int site_alert_id_ = 0;         //!< machine id the site alert names
   double site_speed_scale_ = 1.0;
   std::int32_t site_priority_ = 0;

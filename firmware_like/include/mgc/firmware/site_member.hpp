@@ -56,8 +56,9 @@ struct SiteMemberConfig {
 
 //! The scenario a site member's controller works in: the lift's scenario with every other
 //! machine's fixed bodies (carrier, mast, undercarriage) as static obstacles at their bases, and
-//! its moving bodies as dynamic obstacles, plan_copies of each, parked far below the site until
-//! the rules pose them. Start-up only (allocates; throws std::invalid_argument when my id is not
+//! its moving bodies as dynamic obstacles, parked far below the site until the rules pose them:
+//! plan_copies of each for a machine of higher priority than mine (its pose and its plan), one for
+//! a lower one (its frozen pose while stale; I never plan round it live). Start-up only (allocates; throws std::invalid_argument when my id is not
 //! in the site or a model cannot be built).
 [[nodiscard]] planning::Scenario site_member_scenario(const planning::Scenario& lift, const SiteMemberConfig& config);
 
@@ -78,6 +79,8 @@ struct SitePeerModel {
   //! where the stopping envelopes are measured.
   std::unique_ptr<planning::CollisionWorld> meet_world;
   int world_first = -1;  //!< first of its dynamic obstacles in the planning worlds: copy c, body k at world_first + c * moving + k
+  bool higher = false;   //!< of higher priority than mine, by the site file
+  int copies = 0;        //!< of its moving bodies in the planning worlds: plan_copies when higher, else 1
   planning::Kinematics kinematics{};
   planning::JointVector q;  //!< scratch [rad | m]
   //! The meet world's nearest pair of the last query, measured first in the next: it lowers the
