@@ -170,12 +170,114 @@ bool boxes_overlap(const CollisionObject* a, const Eigen::Vector3d& half_a, cons
   return !fcl::obbDisjoint(relative_rotation, relative_translation, half_a, half_b);
 }
 
+// Squared distance from the segment p0 + t d, t in [0, 1], to the box |x_i| <= half_i (the
+// box's own frame). The distance from a point to the box, sum_i max(|x_i| - half_i, 0)^2, is
+// convex along the segment and a quadratic between the at most six t where a coordinate crosses a
+// face plane, so its minimum is at one of those t, at an end, or at a piece's own vertex. [m^2]
+double segment_box_distance_sq(const Eigen::Vector3d& p0, const Eigen::Vector3d& d, const Eigen::Vector3d& half) noexcept {
+  const auto at = [&](double t) {
+    double sum = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      const double out = std::abs(p0[i] + t * d[i]) - half[i];
+      if (out > 0.0) sum += out * out;
+    }
+    return sum;
+  };
+  std::array<double, 8> cuts{};
+  int n = 0;
+  cuts[static_cast<std::size_t>(n++)] = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    if (d[i] == 0.0) continue;
+    for (const double side : {-half[i], half[i]}) {
+      const double t = (side - p0[i]) / d[i];
+      if (t > 0.0 && t < 1.0) cuts[static_cast<std::size_t>(n++)] = t;
+    }
+  }
+  cuts[static_cast<std::size_t>(n++)] = 1.0;
+  // Insertion sort: at most eight values.
+  for (int a = 1; a < n; ++a) {
+    const double v = cuts[static_cast<std::size_t>(a)];
+    int b = a;
+    for (; b > 0 && cuts[static_cast<std::size_t>(b - 1)] > v; --b) cuts[static_cast<std::size_t>(b)] = cuts[static_cast<std::size_t>(b - 1)];
+    cuts[static_cast<std::size_t>(b)] = v;
+  }
+  double best = std::min(at(0.0), at(1.0));
+  for (int k = 0; k + 1 < n; ++k) {
+    const double lo = cuts[static_cast<std::size_t>(k)];
+    const double hi = cuts[static_cast<std::size_t>(k + 1)];
+    if (!(hi > lo)) continue;
+    // On this piece each coordinate stays on one side of its faces: the quadratic's vertex.
+    const double mid = 0.5 * (lo + hi);
+    double a2 = 0.0;
+    double b1 = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      const double x = p0[i] + mid * d[i];
+      if (x > half[i]) {
+        a2 += d[i] * d[i];
+        b1 += (p0[i] - half[i]) * d[i];
+      } else if (x < -half[i]) {
+        a2 += d[i] * d[i];
+        b1 += (p0[i] + half[i]) * d[i];
+      }
+    }
+    const double t = a2 > 0.0 ? std::clamp(-b1 / a2, lo, hi) : lo;
+    best = std::min(best, at(t));
+  }
+  return best;
+}
+
+// Distance from the segment centre +- half_axis (world frame) to a posed box. [m]
+double segment_box_distance_m(const Eigen::Vector3d& centre, const Eigen::Vector3d& half_axis, const fcl::Transform3d& box_pose,
+                              const Eigen::Vector3d& half) noexcept {
+  const Eigen::Matrix3d box_t = box_pose.linear().transpose();
+  const Eigen::Vector3d p0 = box_t * (centre - half_axis - box_pose.translation());
+  const Eigen::Vector3d d = box_t * (2.0 * half_axis);
+  return std::sqrt(segment_box_distance_sq(p0, d, half));
+}
+
+// Whether a capsule or a cylinder and a box intersect, from the distance between the box and
+// the shape's axis: 1 contact, 0 none, -1 left open (to GJK, as before). A capsule is the points
+// within its radius of its axis segment, so that distance decides it, except within a band of
+// touching where rounding, and GJK's tolerance, could answer either way. A cylinder lies inside
+// the capsule on its axis with its radius (apart from that: none) and holds the capsule of
+// radius rho = min(radius, length / 2) on its axis shortened by rho at each end (within that:
+// contact); between the two it is left open.
+int round_box_contact(const CollisionObject* round, const CollisionObject* box_object) noexcept {
+  const auto* box = static_cast<const fcl::Boxd*>(box_object->collisionGeometry().get());
+  const fcl::Transform3d& pose = round->getTransform();
+  double radius_m = 0.0;
+  double half_length_m = 0.0;
+  const bool capsule = round->getNodeType() == fcl::GEOM_CAPSULE;
+  if (capsule) {
+    const auto* c = static_cast<const fcl::Capsuled*>(round->collisionGeometry().get());
+    radius_m = c->radius;
+    half_length_m = 0.5 * c->lz;
+  } else {
+    const auto* c = static_cast<const fcl::Cylinderd*>(round->collisionGeometry().get());
+    radius_m = c->radius;
+    half_length_m = 0.5 * c->lz;
+  }
+  const Eigen::Vector3d axis = pose.linear().col(2);
+  const Eigen::Vector3d half = 0.5 * box->side;
+  const double band_m =
+      1e-6 * (1.0 + (pose.translation() - box_object->getTransform().translation()).norm() + half_length_m + half.sum() + radius_m);
+  const double distance_m = segment_box_distance_m(pose.translation(), half_length_m * axis, box_object->getTransform(), half);
+  if (distance_m > radius_m + band_m) return 0;
+  if (capsule) return distance_m < radius_m - band_m ? 1 : -1;
+  const double inner_m = std::min(radius_m, half_length_m);
+  const double inner_distance_m =
+      segment_box_distance_m(pose.translation(), (half_length_m - inner_m) * axis, box_object->getTransform(), half);
+  return inner_distance_m < inner_m - band_m ? 1 : -1;
+}
+
 // Yes/no intersection of two posed objects, without touching the heap on the paths our machines
 // and primitive obstacles take:
 //  - box, cylinder, capsule pairs: the separating-axis test first on boxes around both shapes
 //    (apart: no contact) and on boxes inside both (overlapping: contact). For two boxes that is
 //    the whole, exact answer; FCL's own box-box path (boxBoxIntersect) fills a local contact
-//    vector even when no contacts are requested. Pairs it leaves open go to FCL's GJK. Both of
+//    vector even when no contacts are requested. A capsule or a cylinder and a box it leaves open
+//    are mostly decided by the distance from the round shape's axis to the box
+//    (round_box_contact). Pairs still open go to FCL's GJK. Both of
 //    FCL's narrow-phase solvers allocate there (libccd builds its shape objects per call, the
 //    independent solver always follows an overlap with EPA for the penetration depth), so GJK
 //    runs alone: a yes/no answer needs no depth. An iteration limit (Failed) counts as contact,
@@ -188,6 +290,17 @@ bool intersects(const CollisionObject* a, const CollisionObject* b, const fcl::C
   if (box_bounds(a, bounds_a) && box_bounds(b, bounds_b)) {
     if (!boxes_overlap(a, bounds_a.outer, b, bounds_b.outer)) return false;
     if (boxes_overlap(a, bounds_a.inner, b, bounds_b.inner)) return true;
+    // A hoist line beside a jib or a load, a boom beside a silo: most without GJK's iterations.
+    const auto round = [](const CollisionObject* o) {
+      return o->getNodeType() == fcl::GEOM_CAPSULE || o->getNodeType() == fcl::GEOM_CYLINDER;
+    };
+    int contact = -1;
+    if (round(a) && b->getNodeType() == fcl::GEOM_BOX) {
+      contact = round_box_contact(a, b);
+    } else if (a->getNodeType() == fcl::GEOM_BOX && round(b)) {
+      contact = round_box_contact(b, a);
+    }
+    if (contact >= 0) return contact == 1;
   }
   if (a->getObjectType() == fcl::OT_GEOM && b->getObjectType() == fcl::OT_GEOM) {
     // As GJKSolver_indep's shapeIntersect sets it up, minus the EPA stage.
