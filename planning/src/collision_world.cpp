@@ -361,6 +361,14 @@ bool same_bits(const Eigen::DenseBase<Derived>& a, const Eigen::DenseBase<Derive
   return std::memcmp(a.derived().data(), b.derived().data(), sizeof(double) * Derived::SizeAtCompileTime) == 0;
 }
 
+// fcl::AABB::overlap, which FCL's library instantiates out of line: here it inlines.
+inline bool aabbs_overlap(const fcl::AABBd& a, const fcl::AABBd& b) noexcept {
+  for (int i = 0; i < 3; ++i) {
+    if (a.min_[i] > b.max_[i] || a.max_[i] < b.min_[i]) return false;
+  }
+  return true;
+}
+
 // Squared Euclidean distance between two AABBs (FCL's AABB::distance without the root). [m^2]
 inline double aabb_distance_sq(const fcl::AABBd& a, const fcl::AABBd& b) noexcept {
   double sum = 0.0;
@@ -624,6 +632,36 @@ struct CollisionWorld::Impl {
     const int twin = dynamics[d].twin;
     return twin >= 0 && dynamics[d].pose.matrix() == dynamics[static_cast<std::size_t>(twin)].pose.matrix();
   }
+  //! The dynamic obstacles of one shape (an obstacle and its copies for predicted times, twins
+  //! of the first): the box round all of them, so that a body clear of it skips them all at
+  //! once, as a bound over the prediction's whole horizon. Refreshed once per dynamic_epoch.
+  struct Group {
+    fcl::AABBd bounds;
+    int members = 0;
+    std::uint64_t query = 0;  //!< the dynamic_hit() call that last tested `bounds`
+    bool near = false;        //!< that call's answer: the body's AABB overlaps `bounds`
+  };
+  std::vector<Group> groups;          //!< indexed by the group's first obstacle
+  std::vector<int> group_of;          //!< per dynamic obstacle, its group's first obstacle
+  std::vector<unsigned char> on_twin; //!< per dynamic obstacle, stands_on_twin() at groups_epoch
+  std::uint64_t groups_epoch = 0;     //!< dynamic_epoch the groups were refreshed at; 0: never
+  std::uint64_t dynamic_queries = 0;
+  //! Groups, their bounds and the twins' standing, after an obstacle moved or changed shape.
+  void refresh_groups() noexcept {
+    if (groups_epoch == dynamic_epoch) return;
+    for (std::size_t d = 0; d < dynamics.size(); ++d) {
+      const int twin = dynamics[d].twin;
+      group_of[d] = twin >= 0 ? group_of[static_cast<std::size_t>(twin)] : static_cast<int>(d);
+      groups[d].members = 0;
+    }
+    for (std::size_t d = 0; d < dynamics.size(); ++d) {
+      Group& g = groups[static_cast<std::size_t>(group_of[d])];
+      g.bounds = g.members == 0 ? dynamics[d].bounds : g.bounds + dynamics[d].bounds;
+      ++g.members;
+      on_twin[d] = stands_on_twin(d) ? 1 : 0;
+    }
+    groups_epoch = dynamic_epoch;
+  }
   std::vector<std::unique_ptr<PosedObject>> statics;
   std::vector<Dynamic> dynamics;
   std::vector<std::vector<ShapePart>> dynamic_shapes;  //!< each dynamic obstacle's parts as added, to find twins
@@ -655,13 +693,25 @@ int CollisionWorld::Impl::dynamic_hit(std::size_t b) noexcept {
   if (reuse && r.dynamic_epoch == dynamic_epoch) return r.dynamic_hit;
   int hit = -1;
   CollisionObject* body = bodies[b].object.get();
+  const fcl::AABBd& box = body->getAABB();
+  refresh_groups();
+  ++dynamic_queries;
   for (std::size_t d = 0; d < dynamics.size() && hit < 0; ++d) {
-    if (!body->getAABB().overlap(dynamics[d].bounds)) continue;
+    // Clear of the box round the obstacle and all its copies: clear of this one.
+    Group& group = groups[static_cast<std::size_t>(group_of[d])];
+    if (group.members > 1) {
+      if (group.query != dynamic_queries) {
+        group.query = dynamic_queries;
+        group.near = aabbs_overlap(box, group.bounds);
+      }
+      if (!group.near) continue;
+    }
+    if (!aabbs_overlap(box, dynamics[d].bounds)) continue;
     // Checked before it and missed: it misses too (the prediction's copies, all posed at the
     // present time while the machine moves out of it).
-    if (stands_on_twin(d)) continue;
+    if (on_twin[d] != 0) continue;
     for (auto& part : dynamics[d].parts) {
-      if (!body->getAABB().overlap(part.object->getAABB())) continue;
+      if (!aabbs_overlap(box, part.object->getAABB())) continue;
       if (intersects(body, part.object.get(), collision_request, collision_result)) {
         hit = static_cast<int>(d);
         break;
@@ -796,6 +846,9 @@ int CollisionWorld::add_dynamic(DynamicObstacle obstacle) {
   }
   impl_->dynamic_shapes.push_back(obstacle.parts);
   impl_->dynamics.push_back(std::move(dynamic));
+  impl_->groups.emplace_back();
+  impl_->group_of.push_back(index);
+  impl_->on_twin.push_back(0);
   impl_->forget();
   return index;
 }
