@@ -1192,8 +1192,7 @@ void CollisionWorld::add_ball(const JointVector& q) noexcept {
   for (int i = 0; i < model_.dof(); ++i) ball.bound[i] = model_.box_displacement_bound(lo, hi, i);
 }
 
-Validity CollisionWorld::validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
-                                       JointVector* at) noexcept {
+int CollisionWorld::edge_samples(const JointVector& from, const JointVector& to, const JointVector& max_step) const noexcept {
   const JointVector delta = model_.difference(from, to);
   int steps = std::max(1, model_.edge_min_samples(from, to));
   double travel = 0.0;
@@ -1204,21 +1203,27 @@ Validity CollisionWorld::validate_edge(const JointVector& from, const JointVecto
   // No body point may move more than the dilation between two samples: then every point of the
   // continuous motion lies within half the dilation of a sampled pose.
   if (dilation_m_ > 0.0) steps = std::max(steps, static_cast<int>(std::ceil(travel / dilation_m_ - 1e-12)));
-  const bool certify = certifies_edges();
-  for (int k = 1; k <= steps; ++k) {
-    const JointVector q = k == steps ? to : model_.interpolate(from, to, static_cast<double>(k) / steps);
-    const bool certified = certify && in_ball(q);
-    Validity v = certified ? validate_without_collision(q) : validate(q);
-    if (!v.valid()) {
-      if (at) *at = q;
-      return v;
-    }
-    if (certified) {
-      ++impl_->certified_samples;
-    } else if (certify) {
-      add_ball(q);
-    }
+  return steps;
+}
+
+Validity CollisionWorld::validate_edge_sample(const JointVector& from, const JointVector& to, int k, int steps, bool certify,
+                                              JointVector* at) noexcept {
+  const JointVector q = k == steps ? to : model_.interpolate(from, to, static_cast<double>(k) / steps);
+  const bool certified = certify && in_ball(q);
+  Validity v = certified ? validate_without_collision(q) : validate(q);
+  if (!v.valid()) {
+    if (at) *at = q;
+    return v;
   }
+  if (certified) {
+    ++impl_->certified_samples;
+  } else if (certify) {
+    add_ball(q);
+  }
+  return v;
+}
+
+Validity CollisionWorld::validate_edge_constraints(const JointVector& from, const JointVector& to, JointVector* at) const noexcept {
   // Every sample passed; the constraints between them as well (a load-chart row entered below its
   // angle in a slice thinner than a step).
   double t_constraint = 1.0;
@@ -1231,6 +1236,35 @@ Validity CollisionWorld::validate_edge(const JointVector& from, const JointVecto
     return v;
   }
   return {};
+}
+
+Validity CollisionWorld::validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
+                                       JointVector* at) noexcept {
+  const int steps = edge_samples(from, to, max_step);
+  const bool certify = certifies_edges();
+  for (int k = 1; k <= steps; ++k) {
+    const Validity v = validate_edge_sample(from, to, k, steps, certify, at);
+    if (!v.valid()) return v;
+  }
+  return validate_edge_constraints(from, to, at);
+}
+
+bool CollisionWorld::edge_valid(const JointVector& from, const JointVector& to, const JointVector& max_step) noexcept {
+  const int steps = edge_samples(from, to, max_step);
+  const bool certify = certifies_edges();
+  // Every kCoarseStride-th sample first: an obstacle across the edge blocks a stretch of samples,
+  // which this finds after a few checks where walking from `from` would check all before it.
+  const bool coarse = steps >= 2 * kCoarseStride;
+  if (coarse) {
+    for (int k = kCoarseStride; k <= steps; k += kCoarseStride) {
+      if (!validate_edge_sample(from, to, k, steps, certify, nullptr).valid()) return false;
+    }
+  }
+  for (int k = 1; k <= steps; ++k) {
+    if (coarse && k % kCoarseStride == 0) continue;
+    if (!validate_edge_sample(from, to, k, steps, certify, nullptr).valid()) return false;
+  }
+  return validate_edge_constraints(from, to, nullptr).valid();
 }
 
 void CollisionWorld::reuse_results(bool on) noexcept {

@@ -84,7 +84,7 @@ AxisConnectPlanner::Move AxisConnectPlanner::move_joint(const JointVector& from,
   const double back = to_invalid - std::copysign(problem_->step[joint], d);
   if (back * d <= 0.0) return Move::None;
   reached[joint] = moved_value(model, from, joint, back);
-  return problem_->world->validate_edge(from, reached, problem_->step).valid() ? Move::Partial : Move::None;
+  return problem_->world->edge_valid(from, reached, problem_->step) ? Move::Partial : Move::None;
 }
 
 AxisConnectPlanner::Growth AxisConnectPlanner::extend(NodeTree& tree, int from, const JointVector& target,
@@ -149,7 +149,7 @@ AxisConnectPlanner::Growth AxisConnectPlanner::connect_exact(NodeTree& tree, int
       const auto k = static_cast<std::size_t>(s);
       stairs_[k + 1] = stairs_[k];
       stairs_[k + 1][base[static_cast<std::size_t>(perm[k])]] = target[base[static_cast<std::size_t>(perm[k])]];
-      if (!problem_->world->validate_edge(stairs_[k], stairs_[k + 1], problem_->step).valid()) {
+      if (!problem_->world->edge_valid(stairs_[k], stairs_[k + 1], problem_->step)) {
         blocked = s;
         break;
       }

@@ -125,6 +125,13 @@ class CollisionWorld {
   //! results are found at the first sample and reused at the rest (see body_checks()).
   [[nodiscard]] Validity validate_edge(const JointVector& from, const JointVector& to, const JointVector& max_step,
                                        JointVector* at = nullptr) noexcept;
+  //! Whether validate_edge(from, to, max_step) is valid, for a caller that needs no more: the same
+  //! samples, each checked as validate_edge checks it, and the same constraints between them, but
+  //! every kCoarseStride-th sample first, so that an edge an obstacle blocks over a stretch is
+  //! refused after a few checks. RT-safe after finalize().
+  [[nodiscard]] bool edge_valid(const JointVector& from, const JointVector& to, const JointVector& max_step) noexcept;
+  //! edge_valid()'s stride through an edge's samples before it checks the rest. [-]
+  static constexpr int kCoarseStride = 8;
   //! Which machine bodies a clearance query measures.
   enum class Bodies : std::uint8_t {
     All,
@@ -210,6 +217,14 @@ class CollisionWorld {
 
  private:
   [[nodiscard]] Validity validate_without_collision(const JointVector& q) const noexcept;
+  //! Samples validate_edge() checks after `from`.
+  [[nodiscard]] int edge_samples(const JointVector& from, const JointVector& to, const JointVector& max_step) const noexcept;
+  //! Sample k of `steps` of the edge, validated (with certify: certified by a clearance ball where
+  //! one holds it, else leaving one); `at` receives it when it is invalid.
+  [[nodiscard]] Validity validate_edge_sample(const JointVector& from, const JointVector& to, int k, int steps, bool certify,
+                                              JointVector* at) noexcept;
+  //! The model's constraints between the samples of a valid edge (the load chart along it).
+  [[nodiscard]] Validity validate_edge_constraints(const JointVector& from, const JointVector& to, JointVector* at) const noexcept;
   [[nodiscard]] bool in_ball(const JointVector& q) const noexcept;
   //! Leaves a clearance ball at q, where the machine is posed and free (unless waiting).
   void add_ball(const JointVector& q) noexcept;
