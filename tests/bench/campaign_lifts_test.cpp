@@ -83,3 +83,20 @@ TEST_CASE("campaign lifts 754, 865, 96: a worker at the stand or on the goal is 
     }
   }
 }
+
+TEST_CASE("campaign lifts 1023, 1025, 1031: a 110-ft boom fully extended reads past its end stop and is not outside the chart", "[bench][campaign]") {
+  // The boom's full length is the load chart's last row; encoder noise read it 0.1 mm longer, the
+  // rated capacity limiter found no chart cell and cut these undisturbed lifts (RatedCapacityCut).
+  CampaignOptions options;
+  options.scenarios_dir = std::string(MGC_SOURCE_DIR) + "/scenarios";
+  options.threads = 1;
+  options.progress = false;
+  for (const int lift : {1023, 1025, 1031}) {
+    const LiftRecord rec = run_campaign_lift(options, lift);
+    INFO(lift_record_text(rec));
+    REQUIRE(rec.site.rfind("crane-110ft-min-angle", 0) == 0);
+    CHECK(rec.twin.completed);
+    CHECK(rec.twin.stops == 0);
+    CHECK(rec.twin.samples_chart_exceeded == 0);
+  }
+}
