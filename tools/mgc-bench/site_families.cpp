@@ -17,6 +17,8 @@
 #include "mgc/planning/load_chart.hpp"
 #include "mgc/planning/machine_model.hpp"
 
+#include "site_draw.hpp"
+
 namespace mgc::bench {
 
 namespace {
@@ -49,24 +51,9 @@ constexpr std::array<double, 2> kExcBoomRangeDeg = {-50.0, 60.0};
 constexpr std::array<double, 2> kExcArmRangeDeg = {-155.0, -30.0};
 constexpr std::array<double, 2> kExcBucketRangeDeg = {-170.0, 10.0};
 
-//! splitmix64: the same numbers on every platform and standard library, so a seed names one
-//! site everywhere (std::uniform_real_distribution is not specified bit for bit).
-class SiteRng {
- public:
-  explicit SiteRng(std::uint64_t state) : state_(state) {}
-  std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ULL);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    return z ^ (z >> 31);
-  }
-  double uniform(double lo, double hi) { return lo + (hi - lo) * static_cast<double>(next() >> 11) * 0x1.0p-53; }
-  int integer(int lo, int hi) { return lo + static_cast<int>(next() % static_cast<std::uint64_t>(hi - lo + 1)); }
-  double sign() { return (next() & 1U) != 0U ? 1.0 : -1.0; }
-
- private:
-  std::uint64_t state_;
-};
+using SiteRng = site_draw::SplitMix64;
+using site_draw::num;
+using site_draw::wrap_deg;
 
 std::uint64_t family_hash(const std::string& name) {
   std::uint64_t h = 0xCBF29CE484222325ULL;  // FNV-1a
@@ -77,24 +64,9 @@ std::uint64_t family_hash(const std::string& name) {
   return h;
 }
 
-//! Fixed-point text with three decimals and no trailing zeros: short files, identical on every run.
-std::string num(double v) {
-  char buffer[48];
-  std::snprintf(buffer, sizeof buffer, "%.3f", v);
-  std::string s = buffer;
-  while (s.back() == '0') s.pop_back();
-  if (s.back() == '.') s.pop_back();
-  if (s == "-0") s = "0";
-  return s;
-}
 
 std::string vec(double x, double y, double z) { return "[" + num(x) + ", " + num(y) + ", " + num(z) + "]"; }
 
-double wrap_deg(double a) {
-  a = std::fmod(a + 180.0, 360.0);
-  if (a < 0.0) a += 360.0;
-  return a - 180.0;
-}
 
 //! The parts of a scenario file a family draws; the rest is common.
 struct Draft {

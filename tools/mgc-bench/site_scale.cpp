@@ -20,6 +20,8 @@
 #include "mgc/planning/site.hpp"
 #include "mgc/sim/site_referee.hpp"
 
+#include "site_draw.hpp"
+
 namespace mgc::bench {
 namespace {
 
@@ -34,40 +36,11 @@ constexpr double kTowerReach_m = 59.7 + 20.0;
 constexpr double kMobileReach_m = 14.5;
 constexpr double kTowerLoadReach_m = 41.0;
 
-//! splitmix64: the same numbers on every platform and standard library, so a seed names one
-//! site everywhere (std::uniform_real_distribution is not specified bit for bit).
-class ScaleRng {
- public:
-  explicit ScaleRng(std::uint64_t state) : state_(state) {}
-  std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ULL);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    return z ^ (z >> 31);
-  }
-  double uniform(double lo, double hi) { return lo + (hi - lo) * static_cast<double>(next() >> 11) * 0x1.0p-53; }
-  double sign() { return (next() & 1U) != 0U ? 1.0 : -1.0; }
+using ScaleRng = site_draw::SplitMix64;
+using site_draw::num;
+using site_draw::wrap_deg;
 
- private:
-  std::uint64_t state_;
-};
 
-//! Fixed-point text with three decimals and no trailing zeros: short files, identical on every run.
-std::string num(double v) {
-  char buffer[48];
-  std::snprintf(buffer, sizeof buffer, "%.3f", v);
-  std::string s = buffer;
-  while (s.back() == '0') s.pop_back();
-  if (s.back() == '.') s.pop_back();
-  if (s == "-0") s = "0";
-  return s;
-}
-
-double wrap_deg(double a) {
-  a = std::fmod(a + 180.0, 360.0);
-  if (a < 0.0) a += 360.0;
-  return a - 180.0;
-}
 
 struct Lift {
   double from_deg = 0.0, to_deg = 0.0;  //!< swing or slew
