@@ -17,25 +17,17 @@
 #include "mgc/planning/planners/replanner.hpp"
 #include "site_families.hpp"
 
+#include "site_files.hpp"
+
 namespace {
 
 using mgc::bench::SiteExpectation;
 using mgc::planning::Validity;
 
-const std::filesystem::path kMachines = std::filesystem::path(MGC_SOURCE_DIR) / "scenarios" / "machines";
+using mgc::bench::test::kMachines;
+using mgc::bench::test::read;
 
-std::filesystem::path fresh_folder(const std::string& name) {
-  const auto folder = std::filesystem::temp_directory_path() / ("mgc-site-families-" + name + "-" + std::to_string(::getpid()));
-  std::filesystem::remove_all(folder);
-  std::filesystem::create_directories(folder);
-  return folder;
-}
-
-std::string read(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
+std::filesystem::path fresh_folder(const std::string& name) { return mgc::bench::test::fresh_folder("site-families-" + name); }
 }  // namespace
 
 TEST_CASE("every site family keeps its promise about start and goal, for several seeds") {

@@ -21,22 +21,14 @@
 #include "mgc/sim/site_rig.hpp"
 #include "site_scale.hpp"
 
+#include "site_files.hpp"
+
 namespace {
 
-const std::filesystem::path kMachines = std::filesystem::path(MGC_SOURCE_DIR) / "scenarios" / "machines";
+using mgc::bench::test::kMachines;
+using mgc::bench::test::read;
 
-std::filesystem::path fresh_folder(const std::string& name) {
-  const auto folder = std::filesystem::temp_directory_path() / ("mgc-site-scale-" + name + "-" + std::to_string(::getpid()));
-  std::filesystem::remove_all(folder);
-  std::filesystem::create_directories(folder);
-  return folder;
-}
-
-std::string read(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
+std::filesystem::path fresh_folder(const std::string& name) { return mgc::bench::test::fresh_folder("site-scale-" + name); }
 }  // namespace
 
 TEST_CASE("the generated site of 4 machines loads, its bases stand apart and every member hears every other on the rig") {

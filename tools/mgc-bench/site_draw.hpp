@@ -2,11 +2,14 @@
 #pragma once
 
 // What the site generators (site_families.cpp, site_scale.cpp) share: a random stream that names
-// one site by its seed everywhere, and the text of the numbers they write.
+// one site by its seed everywhere, the text of the numbers they write, and the writing.
 
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
 #include <string>
 
 namespace mgc::bench::site_draw {
@@ -46,6 +49,14 @@ inline double wrap_deg(double a) {
   a = std::fmod(a + 180.0, 360.0);
   if (a < 0.0) a += 360.0;
   return a - 180.0;
+}
+
+//! Writes a generated site's text to file; throws std::runtime_error naming the file when it cannot.
+inline void write_text(const std::filesystem::path& file, const std::string& text) {
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error(file.string() + ": cannot write the generated site");
 }
 
 }  // namespace mgc::bench::site_draw

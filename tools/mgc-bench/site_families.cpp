@@ -54,6 +54,7 @@ constexpr std::array<double, 2> kExcBucketRangeDeg = {-170.0, 10.0};
 using SiteRng = site_draw::SplitMix64;
 using site_draw::num;
 using site_draw::wrap_deg;
+using site_draw::write_text;
 
 std::uint64_t family_hash(const std::string& name) {
   std::uint64_t h = 0xCBF29CE484222325ULL;  // FNV-1a
@@ -618,12 +619,6 @@ std::string scenario_text(const SiteFamily& family, std::uint64_t seed, const st
   return text;
 }
 
-void write_text(const std::filesystem::path& file, const std::string& text) {
-  std::ofstream out(file, std::ios::binary | std::ios::trunc);
-  out << text;
-  out.close();
-  if (!out) throw std::runtime_error(file.string() + ": cannot write the generated site");
-}
 
 //! The tool point (hook, bucket tip) of q in the world.
 Eigen::Vector3d tool_point(const planning::MachineModel& model, const planning::JointVector& q) {

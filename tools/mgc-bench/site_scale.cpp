@@ -39,6 +39,7 @@ constexpr double kTowerLoadReach_m = 41.0;
 using ScaleRng = site_draw::SplitMix64;
 using site_draw::num;
 using site_draw::wrap_deg;
+using site_draw::write_text;
 
 
 
@@ -109,12 +110,6 @@ std::string site_text(int n, std::uint64_t seed, const std::vector<Member>& memb
   return t;
 }
 
-void write_text(const std::filesystem::path& file, const std::string& text) {
-  std::ofstream out(file, std::ios::binary | std::ios::trunc);
-  out << text;
-  out.close();
-  if (!out) throw std::runtime_error(file.string() + ": cannot write the generated site");
-}
 
 void copy_machine(const std::filesystem::path& machines_dir, const std::filesystem::path& out_dir, const char* name) {
   std::error_code error;
