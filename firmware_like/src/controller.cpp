@@ -1364,19 +1364,21 @@ void Controller::site_pose_copy(SitePeerModel& p, int copy, const planning::Join
 }
 
 void Controller::site_park(SitePeerModel& p, int from_copy) noexcept {
-  const int moving = static_cast<int>(p.moving_bodies.size());
   // A parked copy stays where it was parked until it is posed: a lower-priority machine's copies
   // are set once, not every cycle.
   const int until = std::min(p.parked_from, p.copies);
   if (from_copy >= until) return;
   p.parked_from = from_copy;
   p.plan_posed = false;
-  for (int c = from_copy; c < until; ++c) {
-    for (int k = 0; k < moving; ++k) {
-      const Eigen::Isometry3d parked = site_parked_pose(p.roster_index, c, k);
-      plan_world_->set_dynamic_pose(p.world_first + c * moving + k, parked);
-      escape_world_->set_dynamic_pose(p.world_first + c * moving + k, parked);
-    }
+  for (int c = from_copy; c < until; ++c) site_park_copy(p, c);
+}
+
+void Controller::site_park_copy(SitePeerModel& p, int copy) noexcept {
+  const int moving = static_cast<int>(p.moving_bodies.size());
+  for (int k = 0; k < moving; ++k) {
+    const Eigen::Isometry3d parked = site_parked_pose(p.roster_index, copy, k);
+    plan_world_->set_dynamic_pose(p.world_first + copy * moving + k, parked);
+    escape_world_->set_dynamic_pose(p.world_first + copy * moving + k, parked);
   }
 }
 
@@ -1634,20 +1636,26 @@ void Controller::site_pose_worlds(const SiteInputs& in) noexcept {
       if (uses_plan) {
         const int w = std::clamp<int>(m.plan.num_waypoints, 2, site_plan_t::MAX_WAYPOINTS);
         const double from_s = m.state.plan_time_s;
-        const double to_s = m.plan.waypoint_time_s[w - 1];
         const int copies = site_->plan_copies - 1;
         // At their own size: grown to cover the sweep between them they would lie on my carrier,
         // which that machine planned round, and leave me no start. What passes between two copies
-        // is the meet scan's to stop. They depend on the plan and where along it the machine is,
-        // nothing else: set again only when either changes (a new state of a moving machine).
-        if (!(p.plan_posed && p.plan_posed_from_s == from_s && site_same_motion(p.plan_posed_from, m.plan))) {
+        // is the meet scan's to stop. They stand at fixed times of the plan, evenly over the whole
+        // of it, so that they depend on the plan alone: a new plan poses them, and as the machine
+        // goes on along it each copy it has passed is parked once.
+        // A plan time gone back (the same motion started again) poses the parked copies again.
+        const bool went_back = p.plan_passed > 0 && site_plan_copy_time_s(m.plan, w, p.plan_passed, copies) >= from_s;
+        if (!(p.plan_posed && !went_back && site_same_motion(p.plan_posed_from, m.plan))) {
+          p.plan_posed_from = m.plan;
+          p.plan_passed = 0;
           for (int c = 1; c <= copies; ++c) {
-            site_plan_at(m.plan, from_s + (to_s - from_s) * static_cast<double>(c) / copies, site_q2_);
+            site_plan_at(m.plan, site_plan_copy_time_s(m.plan, w, c, copies), site_q2_);
             site_pose_copy(p, c, site_q2_, 0.0);
           }
           p.plan_posed = true;
-          p.plan_posed_from_s = from_s;
-          p.plan_posed_from = m.plan;
+        }
+        while (p.plan_passed < copies && site_plan_copy_time_s(m.plan, w, p.plan_passed + 1, copies) < from_s) {
+          ++p.plan_passed;
+          site_park_copy(p, p.plan_passed);
         }
       } else {
         for (int j = 0; j < nq; ++j) site_q2_[j] = p.q[j] + m.state.stop_travel[static_cast<std::size_t>(j)];

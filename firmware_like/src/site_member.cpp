@@ -149,6 +149,12 @@ bool site_same_motion(const site_plan_t& a, const site_plan_t& b) noexcept {
   return true;
 }
 
+double site_plan_copy_time_s(const site_plan_t& plan, int w, int c, int copies) noexcept {
+  const double first_s = plan.waypoint_time_s[0];
+  const double last_s = plan.waypoint_time_s[std::clamp<int>(w, 1, site_plan_t::MAX_WAYPOINTS) - 1];
+  return first_s + (last_s - first_s) * static_cast<double>(c) / static_cast<double>(std::max(copies, 1));
+}
+
 void site_plan_at(const site_plan_t& plan, double t_s, planning::JointVector& q) noexcept {
   const int n = std::min<int>(plan.num_joints, static_cast<int>(q.size()));
   const int w = std::clamp<int>(plan.num_waypoints, 0, site_plan_t::MAX_WAYPOINTS);

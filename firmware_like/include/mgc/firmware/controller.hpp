@@ -336,6 +336,7 @@ class Controller {
   void site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept;
   //! Parks peer p's copies from from_copy on; those already parked are not touched again.
   void site_park(SitePeerModel& p, int from_copy) noexcept;
+  void site_park_copy(SitePeerModel& p, int copy) noexcept;
   void site_fill_state(const guidance::SupervisorOutput& out) noexcept;
   void site_fill_plan() noexcept;
   void raise(std::size_t kind, bool active, std::int8_t severity, std::int8_t source, std::int8_t clear,

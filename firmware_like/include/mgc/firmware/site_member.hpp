@@ -89,8 +89,8 @@ struct SitePeerModel {
   // What its copies in the planning worlds hold, so that a copy is set only when what it shows
   // changes (the worlds hold them as set; the loop alone sets them).
   int parked_from = 0;        //!< copies from this one on are parked (set by make_site_peers)
-  bool plan_posed = false;    //!< copies 1.. hold plan_posed_from at plan_posed_from_s on
-  double plan_posed_from_s = 0.0;  //!< [s]
+  bool plan_posed = false;  //!< copies 1.. hold plan_posed_from at site_plan_copy_time_s()
+  int plan_passed = 0;      //!< copies 1..plan_passed are behind the machine on that plan: parked
   site_plan_t plan_posed_from{};
 };
 
@@ -104,6 +104,10 @@ struct SitePeerModel {
 
 //! The parked pose of copy c of a peer's body k: far below the site, apart from every other. RT-safe.
 [[nodiscard]] Eigen::Isometry3d site_parked_pose(int peer, int copy, int body) noexcept;
+
+//! Plan time of copy c (1..copies) of a higher-priority machine's plan of w waypoints: evenly
+//! over the whole plan, the last at its end. RT-safe.
+[[nodiscard]] double site_plan_copy_time_s(const site_plan_t& plan, int w, int c, int copies) noexcept;
 
 //! Position of a plan at plan time t_s, linear between its timed waypoints, held at its ends. RT-safe.
 void site_plan_at(const site_plan_t& plan, double t_s, planning::JointVector& q) noexcept;
