@@ -12,6 +12,7 @@ sim="$2"
 replay="$3"
 root="$4"
 cli="$replay"
+tools="$mgc $sim"
 source "$root/tests/tools/cli_support.sh"
 scenario="$root/scenarios/thesis-steel-frame.yaml"
 monotonic_us() { python3 -c 'import time; print(time.monotonic_ns() // 1000)'; }

@@ -1,7 +1,14 @@
 # SPDX-License-Identifier: Apache-2.0
 # Shared by the command-line tests: a scratch folder, failure counting, and the bad-input contract
 # (exit 2, exactly one line on stderr matching a pattern). Source it after setting $cli to the
-# program under test.
+# program under test; with $tools set to every program the test runs, it first checks they are built.
+# A test run alone (ctest -R) needs every program it starts, not only the one it is named after.
+for tool in ${tools:-} "$cli"; do
+  if [ ! -x "$tool" ]; then
+    echo "FAIL: $tool is not built; build its target ($(basename "$tool")) first" >&2
+    exit 1
+  fi
+done
 tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
 failures=0

@@ -8,6 +8,7 @@ set -u
 cli="$1"
 plan="$2"
 root="$3"
+tools="$plan"
 source "$(dirname "$0")/cli_support.sh"
 cd "$root" || exit 1
 

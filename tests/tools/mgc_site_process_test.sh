@@ -17,6 +17,7 @@ sim="$2"
 operator="$3"
 root="$4"
 cli="$mgc"
+tools="$sim $operator"
 source "$root/tests/tools/cli_support.sh"
 site="$root/scenarios/sites/crossing-cranes.yaml"
 
