@@ -525,6 +525,13 @@ function renderPlayback(p) {
   $('seek').max = String(p.duration_s);
   if (document.activeElement !== $('seek')) $('seek').value = String(p.position_s);
   setText('play-time', p.position_s.toFixed(1) + ' / ' + p.duration_s.toFixed(1) + ' s');
+  // The speed the log plays at, also when another page (or this one before a reload) chose it;
+  // a speed set through the API that the list lacks is added to it.
+  const speed = $('speed'), value = String(p.speed);
+  if (document.activeElement !== speed && speed.value !== value) {
+    if (!Array.from(speed.options).some((o) => o.value === value)) speed.add(new Option(value));
+    speed.value = value;
+  }
 }
 
 async function main() {
