@@ -460,7 +460,7 @@ function onMessage(event) {
 
 // ---- commands ----
 
-async function post(path, params) {
+async function request(path, params) {
   const res = await fetch(path, {
     method: 'POST',
     headers: { 'Content-Type': 'application/x-www-form-urlencoded' },
@@ -468,11 +468,26 @@ async function post(path, params) {
   });
   let body = {};
   try { body = await res.json(); } catch (e) { body = { error: 'HTTP ' + res.status }; }
+  if (!res.ok && !body.error) body.error = 'HTTP ' + res.status;
+  return body;
+}
+
+async function post(path, params) {
+  const body = await request(path, params);
   const text = body.ok ? path.replace('/api/', '') + ' sent (sequence ' + body.sequence + (body.signed ? ', signed' : ', unsigned') + ')'
-    : path.replace('/api/', '') + ' NOT sent: ' + (body.error || 'HTTP ' + res.status);
+    : path.replace('/api/', '') + ' NOT sent: ' + (body.error || 'unexpected reply');
   setText('command-result', text);
   $('command-result').className = body.ok ? 'ok' : 'refused';
   return body;
+}
+
+// The playback's controls steer mgc-display, not mgc: the footer shows their effect with the next
+// push, and the command result speaks only of one refused.
+async function playback(params) {
+  const body = await request('/api/playback', params);
+  if (!body.error) return;
+  setText('command-result', 'playback ' + params.action + ' refused: ' + body.error);
+  $('command-result').className = 'refused';
 }
 
 function setupControls() {
@@ -514,9 +529,13 @@ function setupControls() {
   }
   if (config.playback) {
     $('playback').hidden = false;
-    $('play').addEventListener('click', () => post('/api/playback', { action: $('play').textContent === 'Pause' ? 'pause' : 'play' }));
-    $('seek').addEventListener('change', () => post('/api/playback', { action: 'seek', value: $('seek').value }));
-    $('speed').addEventListener('change', () => post('/api/playback', { action: 'speed', value: $('speed').value }));
+    const failed = (e) => {
+      setText('command-result', 'playback control NOT sent: ' + e);
+      $('command-result').className = 'refused';
+    };
+    $('play').addEventListener('click', () => playback({ action: $('play').textContent === 'Pause' ? 'pause' : 'play' }).catch(failed));
+    $('seek').addEventListener('change', () => playback({ action: 'seek', value: $('seek').value }).catch(failed));
+    $('speed').addEventListener('change', () => playback({ action: 'speed', value: $('speed').value }).catch(failed));
   }
 }
 
