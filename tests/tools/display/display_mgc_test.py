@@ -14,7 +14,9 @@ Log review: mgc-display --log on that recording; the page marks the data as PLAY
 shown time advances at speed 1 and about four times as fast at speed 4, stands still (and the page
 stays current) when paused; a reloaded page shows the same position, pause and speed; the slider
 moved to the stopped machine, back into the lift and back before the goal shows each time the
-state and the joints the log held at the time the page shows (and no plan before the goal).
+state and the joints the log held at the time the page shows (and no plan before the goal); the
+playback's controls leave the command result alone (they send nothing to mgc), and a control the
+server refuses is reported there.
 No console errors in either. Screenshots go to OUT_DIR. Exits 77 (skipped) only when Chromium, its
 driver or selenium is not installed.
 """
@@ -425,9 +427,18 @@ try:
         seek_and_compare("HOLD", *spans["HOLD"][0], at, "further back to")
         check(wait_for(lambda: browser.execute_script("return plan === null || plan.tool_path.length === 0"), 2) and
               text("plan-progress") == "no plan", "before the goal no plan is drawn: " + text("plan-progress"))
+    # The playback's controls steer mgc-display, not mgc: the page reports no command for them.
+    check(text("command-result") == "—", "no command result for the playback's controls: " + text("command-result"))
     browser.save_screenshot(os.path.join(out_dir, "display-log.png"))
     errors = console_errors()
     check(not errors, "no console errors in the log review: %s" % errors)
+    # A control the server refuses is reported (no control of the page sends one: the page's own
+    # function is called with a speed out of range). The browser logs the 400 itself.
+    browser.execute_script("playback({action: 'speed', value: '50'})")
+    check(wait_for(lambda: text("command-result") == "playback speed refused: speed: expected a number from 0.1 to 10, got '50'", 3) and
+          browser.execute_script("return last.playback.speed") == 4, "a refused playback control reported: " + text("command-result"))
+    errors = [e for e in console_errors() if not re.search(r"/api/playback - .* status of 400", e.get("message", ""))]
+    check(not errors, "no other console error: %s" % errors)
     print("live part %.1f s, whole test %.1f s" % (live_s, time.monotonic() - started_s))
     status = 1 if failures else 0
 except Abort:
