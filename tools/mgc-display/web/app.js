@@ -297,7 +297,11 @@ function fitBounds(points) {
   if (grown) planView = sideView = null;
 }
 
-function drawNow() {
+// The views fitted to what the latest message brings, built anew when they grew. The readouts call
+// it too, before they map a position into the plan view (the obstacle list's data-plan-px), so
+// that the list and the drawing use the same scale from the message that grew the views on.
+function fitViews() {
+  if (!scene) return;
   const machine = last && last.state && last.state.machine;
   if (machine) fitBounds([].concat(...machine.bodies));
   if (plan) fitBounds(plan.tool_path);
@@ -309,6 +313,10 @@ function drawNow() {
     planView.layer = staticLayer(planView);
     sideView.layer = staticLayer(sideView);
   }
+}
+
+function drawNow() {
+  fitViews();
   drawView(planView);
   drawView(sideView);
 }
@@ -339,6 +347,7 @@ function render() {
   renderAlerts(m);
   renderStatuses(m);
   if (m.playback) renderPlayback(m.playback);
+  fitViews();
   renderObstacles(m);
   renderSite(m);
   if (stale) {
