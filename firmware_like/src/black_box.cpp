@@ -124,8 +124,11 @@ class Reader {
   bool ok_ = true;
 };
 
-//! The largest payload: a cycle with every joint and every alert. [bytes]
-constexpr std::size_t kMaxPayloadBytes = 512;
+//! The largest payload: a site plan (kind, roster index, receive time and its 4,683-byte LCM
+//! encoding); a cycle with every joint and every alert is some 500. [bytes]
+constexpr std::size_t kMaxPayloadBytes = 8192;
+//! Kind, roster index, receive time: what a site record holds before the message. [bytes]
+constexpr std::size_t kSiteHeadBytes = 10;
 
 void encode_counters(Writer& w, const hal::BusCounters& c) noexcept {
   w.u64(c.tx_frames);
@@ -151,8 +154,8 @@ hal::BusCounters decode_counters(Reader& r) noexcept {
   return c;
 }
 
-//! The payload of e; its length.
-std::size_t encode_payload(const Entry& e, std::uint8_t* out) noexcept {
+//! The payload of e in format version; its length. plan: the content of a site plan entry.
+std::size_t encode_payload(const Entry& e, const site_plan_t* plan, std::uint8_t* out, std::uint32_t version) noexcept {
   Writer w(out);
   switch (e.type) {
     case RecordType::Frame:
@@ -189,6 +192,10 @@ std::size_t encode_payload(const Entry& e, std::uint8_t* out) noexcept {
       w.u32(static_cast<std::uint32_t>(c.commands.goal_joints));
       for (double g : c.commands.goal) w.f64(g);
       w.u64(c.refusals_total);
+      if (version >= 2) {
+        w.u64(c.records_dropped);
+        w.u64(c.site_taken);
+      }
       w.u8(c.num_joints);
       for (std::size_t j = 0; j < c.num_joints; ++j) w.f64(c.velocity[j]);
       w.u8(static_cast<std::uint8_t>((c.start_nodes ? 1u : 0u) | (c.reset_watchdog ? 2u : 0u) | (c.pilot_enable ? 4u : 0u) |
@@ -207,15 +214,28 @@ std::size_t encode_payload(const Entry& e, std::uint8_t* out) noexcept {
       }
       break;
     }
-    case RecordType::Site:
+    case RecordType::Site: {
+      const SiteEntry& site = e.site;
+      w.u8(static_cast<std::uint8_t>(site.kind));
+      w.u8(static_cast<std::uint8_t>(site.roster_index));
+      w.i64(site.received_us);
+      const int room = static_cast<int>(kMaxPayloadBytes - kSiteHeadBytes);
+      const int n = site.kind == SiteKind::Plan ? (plan != nullptr ? plan->encode(out + w.size(), 0, room) : -1)
+                                                : site.state.encode(out + w.size(), 0, room);
+      // Cannot happen (both fit the buffer); an empty payload then fails to decode rather than lie.
+      if (n <= 0) return 0;
+      return w.size() + static_cast<std::size_t>(n);
+    }
     case RecordType::End:
       break;
   }
   return w.size();
 }
 
-//! Decodes a payload of type; false when it is shorter than its type needs or a count is out of range.
-bool decode_payload(RecordType type, const std::uint8_t* p, std::size_t n, Entry& e) {
+//! Decodes a payload of type in format version; false when it is shorter than its type needs or a
+//! count is out of range. A site plan's content goes to the end of plans.
+bool decode_payload(RecordType type, const std::uint8_t* p, std::size_t n, Entry& e, std::uint32_t version,
+                    std::vector<site_plan_t>& plans) {
   Reader r(p, n);
   e.type = type;
   switch (type) {
@@ -261,6 +281,10 @@ bool decode_payload(RecordType type, const std::uint8_t* p, std::size_t n, Entry
       c.commands.goal_joints = static_cast<int>(r.u32());
       for (double& g : c.commands.goal) g = r.f64();
       c.refusals_total = r.u64();
+      if (version >= 2) {
+        c.records_dropped = r.u64();
+        c.site_taken = r.u64();
+      }
       c.num_joints = r.u8();
       if (c.num_joints > kMaxJoints) return false;
       for (std::size_t j = 0; j < c.num_joints; ++j) c.velocity[j] = r.f64();
@@ -284,7 +308,24 @@ bool decode_payload(RecordType type, const std::uint8_t* p, std::size_t n, Entry
       }
       break;
     }
-    case RecordType::Site:
+    case RecordType::Site: {
+      if (version < 2 || n < kSiteHeadBytes) return false;
+      e.site = {};
+      SiteEntry& site = e.site;
+      site.kind = static_cast<SiteKind>(r.u8());
+      site.roster_index = static_cast<std::int8_t>(r.u8());
+      site.received_us = r.i64();
+      const int rest = static_cast<int>(n - kSiteHeadBytes);
+      if (site.kind == SiteKind::State) {
+        return site.state.decode(p + kSiteHeadBytes, 0, rest) == rest;
+      }
+      if (site.kind != SiteKind::Plan) return false;
+      site_plan_t plan{};
+      if (plan.decode(p + kSiteHeadBytes, 0, rest) != rest) return false;
+      site.plan_index = static_cast<std::uint32_t>(plans.size());
+      plans.push_back(plan);
+      return true;
+    }
     case RecordType::End:
       e.frame = {};
       break;
@@ -295,8 +336,8 @@ bool decode_payload(RecordType type, const std::uint8_t* p, std::size_t n, Entry
 }
 
 //! Record header + payload into out; its length.
-std::size_t encode_record(const Entry& e, std::uint8_t* out) noexcept {
-  const std::size_t n = encode_payload(e, out + kRecordHeaderBytes);
+std::size_t encode_record(const Entry& e, const site_plan_t* plan, std::uint8_t* out, std::uint32_t version) noexcept {
+  const std::size_t n = encode_payload(e, plan, out + kRecordHeaderBytes, version);
   Writer h(out + 4);
   h.u16(static_cast<std::uint16_t>(e.type));
   h.u16(static_cast<std::uint16_t>(n));
@@ -321,7 +362,7 @@ std::vector<std::uint8_t> encode_file_header(const Identity& id, std::size_t num
   std::vector<std::uint8_t> h(kFileHeaderBytes, 0);
   Writer w(h.data());
   w.u32(kFileMagic);
-  w.u32(kFormatVersion);
+  w.u32(id.format_version);
   w.u32(static_cast<std::uint32_t>(kFileHeaderBytes));
   w.u32(static_cast<std::uint32_t>(kBlockBytes));
   w.u32(static_cast<std::uint32_t>(num_blocks));
@@ -339,6 +380,10 @@ std::vector<std::uint8_t> encode_file_header(const Identity& id, std::size_t num
     w.f64(id.plausible_max[j]);
   }
   w.i64(id.started_unix_s);
+  if (id.format_version >= 2) {
+    w.u32(static_cast<std::uint32_t>(id.site_machine_id));
+    w.u64(id.site_machines_hash);
+  }
   Writer c(h.data() + kFileHeaderBytes - 4);
   c.u32(crc32(h.data(), kFileHeaderBytes - 4));
   return h;
@@ -422,6 +467,19 @@ void set_plausible_ranges(Identity& identity, const planning::Scenario& scenario
   }
 }
 
+void set_site_member(Identity& identity, const planning::Site& site, std::int32_t machine_id) {
+  identity.site_machine_id = machine_id;
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  for (const planning::SiteMachine& m : site.machines) {
+    const std::uint64_t file_hash = m.machine.file.empty() ? 0 : hash_file(m.machine.file);
+    for (int i = 0; i < 8; ++i) {
+      h ^= static_cast<std::uint8_t>(file_hash >> (8 * i));
+      h *= 0x100000001b3ull;
+    }
+  }
+  identity.site_machines_hash = h;
+}
+
 void configure_hal(hal::Hal& hal, const Identity& identity) {
   hal.set_valve_deadband(identity.valve_deadband);
   for (std::size_t j = 0; j < identity.num_joints; ++j) {
@@ -440,7 +498,16 @@ std::size_t ring_bytes_for_minutes(double minutes) noexcept {
 // ---- The recorder ------------------------------------------------------------------------------
 
 BlackBox::BlackBox(const std::string& path, const Identity& identity, std::size_t file_bytes)
-    : queue_(std::make_unique<Queue>()), path_(path), block_(kBlockBytes, 0) {
+    : queue_(std::make_unique<Queue>()),
+      plans_(std::make_unique<PlanQueue>()),
+      version_(identity.format_version),
+      record_(kRecordHeaderBytes + kMaxPayloadBytes, 0),
+      path_(path),
+      block_(kBlockBytes, 0) {
+  if (version_ < 1 || version_ > kFormatVersion) {
+    throw std::runtime_error(path + ": black box format version " + std::to_string(version_) + ", expected 1 to " +
+                             std::to_string(kFormatVersion));
+  }
   num_blocks_ = std::max<std::size_t>(2, (file_bytes > kFileHeaderBytes ? file_bytes - kFileHeaderBytes : 0) / kBlockBytes);
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd_ < 0) throw std::runtime_error(path + ": cannot create the black box: " + std::strerror(errno));
@@ -520,6 +587,41 @@ void BlackBox::push_cycle(const CycleEntry& cycle) noexcept {
   Entry e;
   e.type = RecordType::Cycle;
   e.cycle = cycle;
+  e.cycle.records_dropped = dropped();
+  e.cycle.site_taken = site_taken_;
+  (void)queue_->try_push(e);
+}
+
+void BlackBox::push_recorded_cycle(const CycleEntry& cycle) noexcept {
+  Entry e;
+  e.type = RecordType::Cycle;
+  e.cycle = cycle;
+  (void)queue_->try_push(e);
+}
+
+void BlackBox::push_site_state(int roster_index, const site_state_t& state, std::int64_t received_us) noexcept {
+  ++site_taken_;
+  Entry e;
+  e.type = RecordType::Site;
+  e.site.kind = SiteKind::State;
+  e.site.roster_index = static_cast<std::int8_t>(roster_index);
+  e.site.received_us = received_us;
+  e.site.state = state;
+  (void)queue_->try_push(e);
+}
+
+void BlackBox::push_site_plan(int roster_index, const site_plan_t& plan) noexcept {
+  ++site_taken_;
+  // The entry that marks the plan's place must find room after the plan went in: the loop alone
+  // pushes, and the writer only makes room, so room seen now is room then.
+  if (queue_->size() >= kQueueCapacity || !plans_->try_push(plan)) {
+    plans_dropped_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  Entry e;
+  e.type = RecordType::Site;
+  e.site.kind = SiteKind::Plan;
+  e.site.roster_index = static_cast<std::int8_t>(roster_index);
   (void)queue_->try_push(e);
 }
 
@@ -543,8 +645,14 @@ void BlackBox::drain() noexcept {
 }
 
 void BlackBox::append(const Entry& e) noexcept {
-  std::array<std::uint8_t, kRecordHeaderBytes + kMaxPayloadBytes> record{};
-  const std::size_t n = encode_record(e, record.data());
+  const site_plan_t* plan = nullptr;
+  if (e.type == RecordType::Site && e.site.kind == SiteKind::Plan) {
+    // Pushed before the entry that marks it, so it is there.
+    if (!plans_->try_pop(plan_)) return;
+    plan = &plan_;
+  }
+  if (e.type == RecordType::Site && version_ < 2) return;  // version 1 has no site records
+  const std::size_t n = encode_record(e, plan, record_.data(), version_);
   if (used_ + n > kBlockBytes) {
     write_block(false);
     ++block_seq_;
@@ -552,7 +660,7 @@ void BlackBox::append(const Entry& e) noexcept {
     std::fill(block_.begin(), block_.end(), std::uint8_t{0});
     used_ = kBlockHeaderBytes;
   }
-  std::memcpy(block_.data() + used_, record.data(), n);
+  std::memcpy(block_.data() + used_, record_.data(), n);
   used_ += n;
   ++stats_.entries_written;
   stats_.bytes_written += n;
@@ -622,8 +730,9 @@ Recording read_recording(const std::string& path) {
   Reader h(data.get(), kFileHeaderBytes - 4);
   (void)h.u32();  // the magic, checked above
   const std::uint32_t version = h.u32();
-  if (version != kFormatVersion) {
-    throw BadRecording(offset_text(path, 4) + ": format version " + std::to_string(version) + ", expected " + std::to_string(kFormatVersion));
+  if (version < 1 || version > kFormatVersion) {
+    throw BadRecording(offset_text(path, 4) + ": format version " + std::to_string(version) + ", expected 1 to " +
+                       std::to_string(kFormatVersion));
   }
   Reader crc_at(data.get() + kFileHeaderBytes - 4, 4);
   if (crc_at.u32() != crc32(data.get(), kFileHeaderBytes - 4)) throw BadRecording(offset_text(path, kFileHeaderBytes - 4) + ": header CRC mismatch");
@@ -651,6 +760,11 @@ Recording read_recording(const std::string& path) {
     id.plausible_max[j] = h.f64();
   }
   id.started_unix_s = h.i64();
+  id.format_version = version;
+  if (version >= 2) {
+    id.site_machine_id = static_cast<std::int32_t>(h.u32());
+    id.site_machines_hash = h.u64();
+  }
   if (!h.ok() || id.num_joints > kMaxJoints) throw BadRecording(offset_text(path, 20) + ": the identity does not fit the header");
 
   struct Block {
@@ -706,7 +820,7 @@ Recording read_recording(const std::string& path) {
         good = pos + kRecordHeaderBytes + len <= b.used && crc == crc32(data.get() + at + 4, 4 + len);
       }
       Entry e;
-      if (good && !decode_payload(type, data.get() + at + kRecordHeaderBytes, len, e)) {
+      if (good && !decode_payload(type, data.get() + at + kRecordHeaderBytes, len, e, version, rec.plans)) {
         throw BadRecording(offset_text(path, at) + ": record type " + std::to_string(static_cast<int>(type)) + " of " +
                            std::to_string(len) + " bytes does not decode");
       }
@@ -729,18 +843,28 @@ Recording read_recording(const std::string& path) {
 void write_recording(const std::string& path, const Recording& recording, std::size_t file_bytes) {
   BlackBox box(path, recording.identity, file_bytes);
   std::size_t pending = 0;
+  std::size_t plans_pending = 0;
   for (const Entry& e : recording.entries) {
     switch (e.type) {
       case RecordType::Frame: box.push_frame(e.frame.frame); break;
       case RecordType::TxFailure: box.push_tx_failure(e.tx.send_index, e.tx.status); break;
       case RecordType::Command: box.push_command(e.command); break;
-      case RecordType::Cycle: box.push_cycle(e.cycle); break;
+      case RecordType::Cycle: box.push_recorded_cycle(e.cycle); break;
+      case RecordType::Site:
+        if (e.site.kind == SiteKind::Plan) {
+          box.push_site_plan(e.site.roster_index, recording.plans.at(e.site.plan_index));
+          ++plans_pending;
+        } else {
+          box.push_site_state(e.site.roster_index, e.site.state, e.site.received_us);
+        }
+        break;
       default: continue;  // End: close() writes it
     }
-    // The queue is bounded: write out before it fills.
-    if (++pending == kQueueCapacity / 2) {
+    // The queues are bounded: write out before they fill.
+    if (++pending == kQueueCapacity / 2 || plans_pending == kPlanQueueCapacity / 2) {
       box.write_pending();
       pending = 0;
+      plans_pending = 0;
     }
   }
   box.close();
@@ -840,13 +964,15 @@ Difference compare(const CycleEntry& rec, const CycleEntry& rep) {
 
 }  // namespace
 
-ReplayResult replay(const Recording& recording, const planning::Scenario& scenario) {
+ReplayResult replay(const Recording& recording, const planning::Scenario& scenario, const SiteMemberConfig* site) {
   ReplayResult result;
   const Identity& id = recording.identity;
   std::vector<TxFailureEntry> failures;
   const CycleEntry* first = nullptr;
+  bool has_site = false;
   for (const Entry& e : recording.entries) {
     if (e.type == RecordType::TxFailure) failures.push_back(e.tx);
+    if (e.type == RecordType::Site) has_site = true;
     if (e.type == RecordType::Cycle && first == nullptr) first = &e.cycle;
     if (e.type == RecordType::Cycle) result.last_read_us = e.cycle.read_us;
   }
@@ -861,10 +987,17 @@ ReplayResult replay(const Recording& recording, const planning::Scenario& scenar
                      ", and a fresh controller must start from cycle 0";
     return result;
   }
+  if (site == nullptr && (has_site || id.site_machine_id != 0)) {
+    result.replayable = false;
+    result.why_not = "a site member's recording (machine " + std::to_string(id.site_machine_id) + "): it replays with its site";
+    return result;
+  }
 
   ControllerConfig config;
   config.replanner = id.replanner;
-  Controller controller(scenario, config);
+  Controller controller(scenario, config, site);
+  // Large (every machine's latest plan): not on the stack.
+  const auto site_inputs = std::make_unique<SiteInputs>();
   std::vector<double> vmax;
   std::vector<std::string> joint_names;
   for (const auto& j : scenario.machine.joints) {
@@ -883,13 +1016,41 @@ ReplayResult replay(const Recording& recording, const planning::Scenario& scenar
       frames.push_back(e.frame.frame);
       continue;
     }
+    if (e.type == RecordType::Site) {
+      if (e.site.kind == SiteKind::Plan) {
+        take_site_plan(*site_inputs, e.site.roster_index, recording.plans.at(e.site.plan_index), nullptr);
+      } else {
+        take_site_state(*site_inputs, e.site.roster_index, e.site.state, e.site.received_us, nullptr);
+      }
+      ++result.site_messages;
+      continue;
+    }
     if (e.type != RecordType::Cycle) continue;
     const CycleEntry& c = e.cycle;
+    // A cycle whose inputs are not all in the recording would differ, or worse not differ, for a
+    // reason that is not the controller's: say so and stop.
+    std::string missing;
+    if (c.cycle != result.cycles) {
+      missing = "its cycle number is " + std::to_string(c.cycle) + ", expected " + std::to_string(result.cycles) + ": cycles are missing";
+    } else if (c.records_dropped > 0) {
+      missing = std::to_string(c.records_dropped) + " records dropped by the recorder's full queue before it";
+    } else if (c.site_taken != result.site_messages) {
+      missing = "the loop took " + std::to_string(c.site_taken) + " site messages before it, the recording holds " +
+                std::to_string(result.site_messages);
+    }
+    if (!missing.empty()) {
+      result.incomplete = true;
+      result.incomplete_cycle = c.cycle;
+      result.first_read_us = c.read_us;
+      result.why_incomplete = missing;
+      return result;
+    }
     bus.load(frames, c);
     result.frames += frames.size();
     const hal::SensorSnapshot& s = hal.read(c.read_us);
     frames.clear();
-    const ControllerOutput out = controller.step(s, c.dt_us, c.commands, c.watchdog_tripped);
+    const ControllerOutput out = site != nullptr ? controller.step(s, c.dt_us, c.commands, c.watchdog_tripped, *site_inputs)
+                                                 : controller.step(s, c.dt_us, c.commands, c.watchdog_tripped);
     if (out.start_nodes) (void)hal.send_nmt(hal::canopen::NmtCommand::Start, 0);
     hal.set_pilot_enabled(out.pilot_enable);
     (void)hal.write(out.velocity, c.read_us);

@@ -245,6 +245,7 @@ int main(int argc, char** argv) {
     const auto period_us = static_cast<std::int64_t>(1e6 / rate_hz);
     firmware::black_box::Identity identity = firmware::black_box::identity_for(scenario, replanner, period_us, valve_deadband_pct / 100.0);
     firmware::black_box::set_plausible_ranges(identity, scenario);
+    if (site_member) firmware::black_box::set_site_member(identity, site_member->site, machine_id);
     std::unique_ptr<firmware::black_box::BlackBox> black_box;
     std::unique_ptr<firmware::black_box::RecordingBus> recording_bus;
     if (!black_box_file.empty()) {
@@ -370,7 +371,7 @@ int main(int argc, char** argv) {
 
       const std::int64_t step_dt_us = timing.index == 0 ? period_us : timing.dt_us;
       const bool watchdog_tripped = executive.watchdog_tripped();
-      if (site_channel) site_channel->take(*site_inputs, timing.start_us);
+      if (site_channel) site_channel->take(*site_inputs, timing.start_us, black_box.get());
       const firmware::ControllerOutput out = site_channel ? controller.step(s, step_dt_us, cmd, watchdog_tripped, *site_inputs)
                                                        : controller.step(s, step_dt_us, cmd, watchdog_tripped);
       if (site_channel) {
@@ -596,13 +597,18 @@ int main(int argc, char** argv) {
                 loop_threads > 1 ? (", " + std::to_string(standby_cycles) + " cycles run by the standby thread").c_str() : "");
     if (black_box) {
       const firmware::black_box::WriterStats& bs = black_box->stats();
+      char site_text[128] = "";
+      if (site_channel) {
+        std::snprintf(site_text, sizeof site_text, " (%" PRIu64 " of them site plans), %" PRIu64 " site messages taken",
+                      black_box->site_plans_dropped(), black_box->site_taken());
+      }
       const double run_s = std::max(1e-6, static_cast<double>(es.cycles) * static_cast<double>(period_us) * 1e-6);
       std::printf("mgc: black box: %s, %zu blocks of %zu KiB, %" PRIu64 " records, %" PRIu64 " bytes (%.0f B/s), %" PRIu64
-                  " flushes (write + fdatasync) mean %.0f us max %" PRId64 " us, %" PRIu64 " records dropped%s\n",
+                  " flushes (write + fdatasync) mean %.0f us max %" PRId64 " us, %" PRIu64 " records dropped%s%s\n",
                   black_box_file.c_str(), black_box->num_blocks(), firmware::black_box::kBlockBytes / 1024, bs.entries_written,
                   bs.bytes_written, static_cast<double>(bs.bytes_written) / run_s, bs.flushes,
                   bs.flushes > 0 ? static_cast<double>(bs.flush_total_us) / static_cast<double>(bs.flushes) : 0.0, bs.flush_max_us,
-                  black_box->dropped(), black_box->io_error() != 0 ? ", write errors" : "");
+                  black_box->dropped(), site_text, black_box->io_error() != 0 ? ", write errors" : "");
     }
     const firmware::RefusalCounter& refusals = feed.refusals();
     std::printf("mgc: operator commands on LCM: %" PRIu64 " accepted, %" PRIu64 " refused", feed.counters().commands_accepted.load(),

@@ -150,21 +150,12 @@ void SiteChannel::refused(SiteReason reason, std::int32_t machine_id, std::int64
   counters_.refusal_alerts.fetch_add(1, std::memory_order_relaxed);
 }
 
-void SiteChannel::take(SiteInputs& inputs, std::int64_t now_us) noexcept {
+void SiteChannel::take(SiteInputs& inputs, std::int64_t now_us, SiteTakeObserver* observer) noexcept {
   while (states_in_.try_pop(take_state_)) {
-    if (take_state_.roster_index < 0 || static_cast<std::size_t>(take_state_.roster_index) >= inputs.peers.size()) continue;
-    SitePeerMessages& peer = inputs.peers[static_cast<std::size_t>(take_state_.roster_index)];
-    peer.state = take_state_.state;
-    peer.has_state = true;
     // Received during this cycle's wait at the latest: never later than the cycle's own time.
-    peer.state_received_us = std::min(take_state_.received_us, now_us);
+    take_site_state(inputs, take_state_.roster_index, take_state_.state, std::min(take_state_.received_us, now_us), observer);
   }
-  while (plans_in_.try_pop(take_plan_)) {
-    if (take_plan_.roster_index < 0 || static_cast<std::size_t>(take_plan_.roster_index) >= inputs.peers.size()) continue;
-    SitePeerMessages& peer = inputs.peers[static_cast<std::size_t>(take_plan_.roster_index)];
-    peer.plan = take_plan_.plan;
-    peer.has_plan = true;
-  }
+  while (plans_in_.try_pop(take_plan_)) take_site_plan(inputs, take_plan_.roster_index, take_plan_.plan, observer);
 }
 
 }  // namespace mgc::firmware

@@ -171,4 +171,22 @@ void site_plan_at(const site_plan_t& plan, double t_s, planning::JointVector& q)
   for (int j = 0; j < n; ++j) q[j] = plan.positions[i][j] + f * (plan.positions[i + 1][j] - plan.positions[i][j]);
 }
 
+void take_site_state(SiteInputs& inputs, int roster_index, const site_state_t& state, std::int64_t received_us,
+                     SiteTakeObserver* observer) noexcept {
+  if (roster_index < 0 || static_cast<std::size_t>(roster_index) >= inputs.peers.size()) return;
+  SitePeerMessages& peer = inputs.peers[static_cast<std::size_t>(roster_index)];
+  peer.state = state;
+  peer.has_state = true;
+  peer.state_received_us = received_us;
+  if (observer != nullptr) observer->took_site_state(roster_index, state, received_us);
+}
+
+void take_site_plan(SiteInputs& inputs, int roster_index, const site_plan_t& plan, SiteTakeObserver* observer) noexcept {
+  if (roster_index < 0 || static_cast<std::size_t>(roster_index) >= inputs.peers.size()) return;
+  SitePeerMessages& peer = inputs.peers[static_cast<std::size_t>(roster_index)];
+  peer.plan = plan;
+  peer.has_plan = true;
+  if (observer != nullptr) observer->took_site_plan(roster_index, plan);
+}
+
 }  // namespace mgc::firmware

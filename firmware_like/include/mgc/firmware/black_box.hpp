@@ -14,13 +14,16 @@
 
 #include "mgc/firmware/controller.hpp"
 #include "mgc/firmware/guidance_snapshot.hpp"
+#include "mgc/firmware/site_member.hpp"
 #include "mgc/firmware/spsc_queue.hpp"
 #include "mgc/hal/can_bus.hpp"
 #include "mgc/hal/hal.hpp"
 #include "mgc/planning/scenario.hpp"
+#include "mgc/planning/site.hpp"
 
 //! The black box (docs/black-box.md): what the controller received (every CAN frame with its
-//! receive time as the Hal saw it, the operator commands accepted, the refusals counted) and what
+//! receive time as the Hal saw it, the operator commands accepted, the refusals counted, a site
+//! member's verified site messages as the loop took them) and what
 //! it decided (velocity commands, supervisor transitions, alerts) each cycle, in a bounded ring of
 //! blocks on disk. The loop pushes fixed-size entries into a lock-free queue; a writer thread
 //! encodes them into blocks and writes and syncs them at least once a second. replay() feeds a
@@ -29,7 +32,9 @@ namespace mgc::firmware::black_box {
 
 inline constexpr std::uint32_t kFileMagic = 0x5842474Du;   //!< "MGBX" little-endian
 inline constexpr std::uint32_t kBlockMagic = 0x4B4C4247u;  //!< "GBLK" little-endian
-inline constexpr std::uint32_t kFormatVersion = 1;
+//! Version 2 adds the site: the header's machine id and site hash, site records, and each cycle's
+//! counts of dropped records and site messages taken. Version 1 files are still read and replayed.
+inline constexpr std::uint32_t kFormatVersion = 2;
 inline constexpr std::size_t kFileHeaderBytes = 4096;      //!< [bytes]
 inline constexpr std::size_t kBlockHeaderBytes = 32;       //!< [bytes]
 inline constexpr std::size_t kBlockBytes = 64 * 1024;      //!< header + records, never split [bytes]
@@ -39,13 +44,16 @@ inline constexpr std::size_t kMeasuredBytesPerSecond = 45'000;
 inline constexpr double kDefaultMinutes = 10.0;            //!< [min]
 inline constexpr std::int64_t kFlushPeriodUs = 250'000;    //!< write + fdatasync at least this often [µs]
 inline constexpr std::size_t kQueueCapacity = 8192;        //!< entries: about 9 s of the thesis lift [-]
+//! Site plans waiting for the writer, beside the entries that mark their place: 4.7 kB each, so
+//! they have their own queue. 16 machines' plans at once and as many again. [-]
+inline constexpr std::size_t kPlanQueueCapacity = 32;
 
 enum class RecordType : std::uint16_t {
   Frame = 1,      //!< a CAN frame as the Hal received it
   Cycle = 2,      //!< one cycle's other inputs and its decisions
   Command = 3,    //!< an operator command the feed accepted (and the loop took)
   TxFailure = 4,  //!< a send the bus refused (the Hal's n-th send since start)
-  Site = 5,       //!< a site channel message (reserved: the loop receives none yet)
+  Site = 5,       //!< a verified site message (state or plan) as the loop took it
   End = 6,        //!< the writer stopped cleanly
 };
 
@@ -69,6 +77,21 @@ struct CommandEntry {
   std::int64_t received_us = 0;         //!< monotonic time of receipt [µs]
 };
 
+enum class SiteKind : std::uint8_t {
+  State = 1,
+  Plan = 2,
+};
+
+//! A site message the loop took (site_member.hpp, take_site_state / take_site_plan). A plan's
+//! content travels beside the entry: in the recorder's plan queue, in Recording::plans once read.
+struct SiteEntry {
+  SiteKind kind = SiteKind::State;
+  std::int8_t roster_index = -1;     //!< the sender's entry in the site's roster [-]
+  std::int64_t received_us = 0;      //!< a state's receive time as the controller is given it [µs]
+  std::uint32_t plan_index = 0;      //!< a plan's index in Recording::plans (read back only) [-]
+  site_state_t state{};              //!< kind State
+};
+
 //! One alert as the decision compares it.
 struct AlertDigest {
   std::int32_t alert_id = 0;
@@ -90,6 +113,9 @@ struct CycleEntry {
   hal::BusCounters bus{};              //!< the bus's counters at this read
   ControllerCommands commands{};       //!< as given to step()
   std::uint64_t refusals_total = 0;    //!< operator commands the feed refused, since start [-]
+  // Completeness (version 2), stamped by BlackBox::push_cycle: replay checks what it fed against them.
+  std::uint64_t records_dropped = 0;   //!< entries the recorder dropped (full queue) before this one, since start [-]
+  std::uint64_t site_taken = 0;        //!< site messages the loop took before this cycle's step, since start [-]
   // Decisions.
   std::uint8_t num_joints = 0;
   std::array<double, kMaxJoints> velocity{};  //!< [rad/s | m/s]
@@ -112,6 +138,7 @@ struct Entry {
     TxFailureEntry tx;
     CommandEntry command;
     CycleEntry cycle;
+    SiteEntry site;
   };
   Entry() noexcept : frame{} {}
 };
@@ -136,6 +163,14 @@ struct Identity {
   std::array<double, kMaxJoints> plausible_min{};  //!< Hal::set_joint_plausible_range [rad | m]
   std::array<double, kMaxJoints> plausible_max{};
   std::int64_t started_unix_s = 0;     //!< wall clock at start, for the investigator [s]
+  //! The file's format: kFormatVersion when written by mgc, as read otherwise. [-]
+  std::uint32_t format_version = kFormatVersion;
+  //! A site member's machine id (scenario_file is then the site file, the lift its first); 0: one
+  //! machine on its scenario. [-]
+  std::int32_t site_machine_id = 0;
+  //! FNV-1a 64 over the machine files' hashes of every machine of the site, in site order: the
+  //! other machines' models enter the member's worlds. [-]
+  std::uint64_t site_machines_hash = 0;
 };
 
 //! FNV-1a 64 of a file's bytes; throws std::runtime_error naming the file when it cannot be read.
@@ -146,6 +181,9 @@ struct Identity {
 //! The plausible ranges mgc gives its Hal: each non-continuous joint's range with a tenth of its
 //! span either side (a joint a little past a soft limit is the diagnostics' business).
 void set_plausible_ranges(Identity& identity, const planning::Scenario& scenario);
+//! Makes the identity a site member's: its machine id and the hash of the site's machine files
+//! (identity_for() of its lift scenario already names and hashes the site file).
+void set_site_member(Identity& identity, const planning::Site& site, std::int32_t machine_id);
 //! Applies the identity's deadband and plausible ranges to a Hal.
 void configure_hal(hal::Hal& hal, const Identity& identity);
 
@@ -161,13 +199,15 @@ struct WriterStats {
   std::int64_t flush_total_us = 0;     //!< [µs]
 };
 
-//! The recorder: a queue the loop pushes into and a thread that writes the ring.
-class BlackBox {
+//! The recorder: a queue the loop pushes into and a thread that writes the ring. As a
+//! SiteTakeObserver it records the site messages the loop takes.
+class BlackBox final : public SiteTakeObserver {
  public:
-  //! Creates (or truncates) path with room for num_blocks blocks and writes the header. Start-up:
-  //! allocates, throws std::runtime_error naming the file on an I/O error.
+  //! Creates (or truncates) path with room for num_blocks blocks and writes the header, in
+  //! identity.format_version (1 or 2). Start-up: allocates, throws std::runtime_error naming the
+  //! file on an I/O error or an unknown version.
   BlackBox(const std::string& path, const Identity& identity, std::size_t file_bytes);
-  ~BlackBox();
+  ~BlackBox() override;
   BlackBox(const BlackBox&) = delete;
   BlackBox& operator=(const BlackBox&) = delete;
 
@@ -182,9 +222,24 @@ class BlackBox {
   void push_frame(const hal::TimedFrame& frame) noexcept;
   void push_tx_failure(std::uint64_t send_index, hal::Status status) noexcept;
   void push_command(const CommandEntry& command) noexcept;
+  //! Stamps the entry with the records dropped and the site messages taken so far.
   void push_cycle(const CycleEntry& cycle) noexcept;
+  //! As it is, stamps included: rewriting a recording.
+  void push_recorded_cycle(const CycleEntry& cycle) noexcept;
+  void push_site_state(int roster_index, const site_state_t& state, std::int64_t received_us) noexcept;
+  //! The plan into the plan queue, its place into the entries; when either is full, dropped and counted.
+  void push_site_plan(int roster_index, const site_plan_t& plan) noexcept;
+  void took_site_state(int roster_index, const site_state_t& state, std::int64_t received_us) noexcept override {
+    push_site_state(roster_index, state, received_us);
+  }
+  void took_site_plan(int roster_index, const site_plan_t& plan) noexcept override { push_site_plan(roster_index, plan); }
 
-  [[nodiscard]] std::uint64_t dropped() const noexcept { return queue_->dropped(); }
+  //! Entries dropped since start, site plans included. [-]
+  [[nodiscard]] std::uint64_t dropped() const noexcept { return queue_->dropped() + plans_dropped_.load(std::memory_order_relaxed); }
+  //! Site plans dropped since start (counted in dropped() too). [-]
+  [[nodiscard]] std::uint64_t site_plans_dropped() const noexcept { return plans_dropped_.load(std::memory_order_relaxed); }
+  //! Site messages the loop took since start, recorded or dropped. [-]
+  [[nodiscard]] std::uint64_t site_taken() const noexcept { return site_taken_; }
   //! Entries waiting for the writer. [-]
   [[nodiscard]] std::size_t pending() const noexcept { return queue_->size(); }
   //! Valid after close().
@@ -199,7 +254,14 @@ class BlackBox {
   void write_block(bool sync) noexcept;
 
   using Queue = SpscQueue<Entry, kQueueCapacity>;
+  using PlanQueue = SpscQueue<site_plan_t, kPlanQueueCapacity>;
   std::unique_ptr<Queue> queue_;
+  std::unique_ptr<PlanQueue> plans_;
+  std::atomic<std::uint64_t> plans_dropped_{0};  //!< written by the loop, read by any thread
+  std::uint64_t site_taken_ = 0;                 //!< the loop's
+  std::uint32_t version_ = kFormatVersion;
+  std::vector<std::uint8_t> record_;  //!< the writer's scratch: one record
+  site_plan_t plan_{};                //!< the writer's scratch: the plan an entry marks
   std::string path_;
   int fd_ = -1;
   std::size_t num_blocks_ = 0;
@@ -249,6 +311,7 @@ class BadRecording : public std::runtime_error {
 struct Recording {
   Identity identity;
   std::vector<Entry> entries;
+  std::vector<site_plan_t> plans;   //!< the site plans, which SiteEntry::plan_index names
   std::size_t num_blocks = 0;       //!< the ring's size [blocks]
   std::size_t blocks_used = 0;      //!< blocks holding this run's records [blocks]
   bool wrapped = false;             //!< the oldest blocks were overwritten
@@ -261,7 +324,8 @@ struct Recording {
 //! Reads path; throws BadRecording.
 [[nodiscard]] Recording read_recording(const std::string& path);
 
-//! Writes a recording back (same block layout, entries re-encoded): the tests' way of altering one.
+//! Writes a recording back (same block layout, entries re-encoded, in identity.format_version;
+//! version 1 has no site records): the tests' way of altering one.
 void write_recording(const std::string& path, const Recording& recording, std::size_t file_bytes);
 
 struct ReplayResult {
@@ -277,10 +341,19 @@ struct ReplayResult {
   std::int64_t last_read_us = 0;     //!< the last recorded cycle's time [µs]
   std::uint64_t frames = 0;          //!< frames fed [-]
   std::uint64_t transitions = 0;     //!< supervisor transitions recorded [-]
+  std::uint64_t site_messages = 0;   //!< site states and plans fed [-]
+  //! The recording lacks inputs of a cycle (records dropped by a full queue, site records missing):
+  //! replay stopped before it; identical then speaks of the cycles before.
+  bool incomplete = false;
+  std::uint64_t incomplete_cycle = 0;
+  std::string why_incomplete;
 };
 
 //! Feeds the recording's frames and inputs to a fresh Hal (over a bus that plays the frames back)
 //! and a fresh Controller for scenario, cycle by cycle, and compares every decision bit for bit.
-[[nodiscard]] ReplayResult replay(const Recording& recording, const planning::Scenario& scenario);
+//! A site member's recording needs site, the member's configuration (as mgc builds it; its
+//! recorded site messages then go to the controller in the cycles that took them); without it,
+//! one that holds site messages is not replayable.
+[[nodiscard]] ReplayResult replay(const Recording& recording, const planning::Scenario& scenario, const SiteMemberConfig* site = nullptr);
 
 }  // namespace mgc::firmware::black_box

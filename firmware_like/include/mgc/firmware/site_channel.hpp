@@ -92,8 +92,9 @@ class SiteChannel {
   bool post_state(const site_state_t& state) noexcept { return states_out_.try_push(state); }
   bool post_plan(const site_plan_t& plan) noexcept { return plans_out_.try_push(plan); }
   //! Loop side: copies every accepted message waiting into inputs (the latest of each machine
-  //! wins), with each state's receive time not later than now_us. RT-safe.
-  void take(SiteInputs& inputs, std::int64_t now_us) noexcept;
+  //! wins), with each state's receive time not later than now_us, and tells observer (the black
+  //! box; may be null) of each as taken. RT-safe.
+  void take(SiteInputs& inputs, std::int64_t now_us, SiteTakeObserver* observer = nullptr) noexcept;
 
   [[nodiscard]] const SiteChannelCounters& counters() const noexcept { return counters_; }
   //! The site channel's LCM instance (tests publish into a memq:// one and subscribe to it).

@@ -36,6 +36,23 @@ struct SiteInputs {
   std::array<SitePeerMessages, kMaxSiteMachines> peers{};
 };
 
+//! Told of each verified message as the loop takes it into its SiteInputs (the black box records
+//! them there). Implementations are RT-safe: no alloc, no lock, no throw, no wait.
+class SiteTakeObserver {
+ public:
+  virtual ~SiteTakeObserver() = default;
+  //! A state for roster entry roster_index, with the receive time the controller is given. [µs]
+  virtual void took_site_state(int roster_index, const site_state_t& state, std::int64_t received_us) noexcept = 0;
+  virtual void took_site_plan(int roster_index, const site_plan_t& plan) noexcept = 0;
+};
+
+//! The loop's hand-off: puts one verified state (received at received_us on the loop's clock) or
+//! plan into inputs, the latest of each machine winning, and tells observer (may be null). An
+//! index outside the roster is ignored. RT-safe.
+void take_site_state(SiteInputs& inputs, int roster_index, const site_state_t& state, std::int64_t received_us,
+                     SiteTakeObserver* observer) noexcept;
+void take_site_plan(SiteInputs& inputs, int roster_index, const site_plan_t& plan, SiteTakeObserver* observer) noexcept;
+
 //! Start-up description of the site for a member's controller.
 struct SiteMemberConfig {
   planning::Site site;
