@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <chrono>
+#include <memory>
 #include <filesystem>
 #include <string>
 #include <thread>
@@ -63,4 +64,32 @@ TEST_CASE("a full black box queue counts what it drops and does not allocate", "
   CHECK(allocations == 0);
   CHECK(box.pending() == bb::kQueueCapacity);
   CHECK(box.dropped() == 100);
+}
+
+TEST_CASE("recording the site messages the loop takes allocates nothing, and a full plan queue counts its drops", "[firmware][black-box][alloc][site]") {
+  const planning::Scenario scenario = planning::io::load_scenario(test::scenario_path("thesis-steel-frame.yaml"));
+  bb::BlackBox box(scratch("site.mgcbb"), bb::identity_for(scenario, "axis-connect", 10'000, 0.0), bb::ring_bytes_for_minutes(0.1));
+  const auto inputs = std::make_unique<firmware::SiteInputs>();
+  const auto plan = std::make_unique<site_plan_t>();
+  plan->machine_id = 2;
+  plan->plan_id = 3;
+  site_state_t state{};
+  state.machine_id = 2;
+  constexpr std::size_t kTaken = bb::kPlanQueueCapacity + 5;
+  const long before = test::allocation_count();
+  for (std::size_t i = 0; i < kTaken; ++i) {
+    state.sequence = static_cast<std::int64_t>(i + 1);
+    firmware::take_site_state(*inputs, 1, state, static_cast<std::int64_t>(i), &box);
+    firmware::take_site_plan(*inputs, 1, *plan, &box);
+  }
+  box.push_cycle(bb::CycleEntry{});
+  const long allocations = test::allocation_count() - before;
+  CHECK(allocations == 0);
+  // The loop's inputs have them all; the recorder every state, the plans its plan queue held.
+  CHECK(inputs->peers[1].state.sequence == static_cast<std::int64_t>(kTaken));
+  CHECK(inputs->peers[1].has_plan);
+  CHECK(box.site_taken() == 2 * kTaken);
+  CHECK(box.site_plans_dropped() == 5);
+  CHECK(box.dropped() == 5);
+  CHECK(box.pending() == 2 * kTaken - 5 + 1);
 }

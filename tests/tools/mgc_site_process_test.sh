@@ -9,13 +9,15 @@
 # test's budget; the site rig's tests run both lifts to the end in stepped time.) Meanwhile a third
 # mgc, started as the tower crane with another key on its own simulated machine, publishes on the
 # same channel: both members refuse every one of its messages (bad MAC) and raise an alert, and it
-# refuses theirs, never hears the site and never moves. Also the bad-input contract of --site.
-#   mgc_site_process_test.sh MGC MGC_SIM MGC_OPERATOR SOURCE_DIR
+# refuses theirs, never hears the site and never moves. The TMS870's black box replays identically,
+# the tower crane's messages in it. Also the bad-input contract of --site.
+#   mgc_site_process_test.sh MGC MGC_SIM MGC_OPERATOR SOURCE_DIR MGC_REPLAY
 set -u
 mgc="$1"
 sim="$2"
 operator="$3"
 root="$4"
+replay="$5"
 cli="$mgc"
 tools="$sim $operator"
 source "$root/tests/tools/cli_support.sh"
@@ -57,7 +59,7 @@ if chrt -f 10 true 2>/dev/null; then
   rt_mgc="--fifo-priority 40"
 fi
 
-start_member() {  # start_member NAME MACHINE_ID BUS_INDEX KEY DURATION_S
+start_member() {  # start_member NAME MACHINE_ID BUS_INDEX KEY DURATION_S [MGC OPTION...]
   local name="$1" id="$2" key="$4" duration="$5" m c
   read -r m c <<<"$(bus_pair "$3")"
   $rt "$sim" --site "$site" --machine-id "$id" --bus "udp:127.0.0.1:$m,peer=127.0.0.1:$c" --duration $((duration + 5)) --quiet \
@@ -65,14 +67,14 @@ start_member() {  # start_member NAME MACHINE_ID BUS_INDEX KEY DURATION_S
   sims+=($!)
   sleep 0.2
   "$mgc" --site "$site" --machine-id "$id" --site-key "$key" --site-lcm-url "$site_url" --lcm-url "$(feed_url "$3")" \
-    --bus "udp:127.0.0.1:$c,peer=127.0.0.1:$m" --goal-on-start --duration "$duration" $rt_mgc >"$tmp/$name.out" 2>&1 &
+    --bus "udp:127.0.0.1:$c,peer=127.0.0.1:$m" --goal-on-start --duration "$duration" $rt_mgc "${@:6}" >"$tmp/$name.out" 2>&1 &
   eval "${name}_pid=$!"
 }
 
 run_once() {
   sims=()
   local start=$SECONDS
-  start_member tms870 1 1 "$tmp/site.key" 80
+  start_member tms870 1 1 "$tmp/site.key" 80 --black-box "$tmp/tms870.mgcbb"
   start_member tower 2 2 "$tmp/site.key" 80
   start_member impostor 2 3 "$tmp/wrong.key" 12
   # The tower crane's lift's end seen on its operator feed; then the controllers are stopped
@@ -151,6 +153,17 @@ fi
 grep -Eq '^mgc: site rules: ([1-9][0-9]*) stops' "$tmp/tms870.out" || fail "tms870: the site rules never stopped it"
 grep -Eq '^mgc: site rules: .* ([1-9][0-9]*) re-plans for a higher-priority machine' "$tmp/tms870.out" ||
   fail "tms870: never re-planned round the tower crane"
+
+# The TMS870's black box: every cycle replays identically with the tower crane's messages it took.
+"$replay" "$tmp/tms870.mgcbb" >"$tmp/replay.out" 2>&1
+replay_exit=$?
+grep -E '^mgc-replay: (site member|identical|differs|incomplete|cannot)' "$tmp/replay.out"
+grep -E '^mgc: black box:' "$tmp/tms870.out"
+[ "$replay_exit" -eq 0 ] || fail "tms870: mgc-replay exit $replay_exit, expected 0"
+replayed=$(sed -nE 's/^mgc-replay: identical for ([0-9]+) cycles \([0-9]+ frames, ([0-9]+) site messages.*/\1 \2/p' "$tmp/replay.out")
+read -r replayed_cycles replayed_site <<<"$replayed"
+[ "${replayed_cycles:-0}" -eq "$(cycles_of tms870)" ] || fail "tms870: $replayed_cycles cycles replayed of $(cycles_of tms870)"
+[ "${replayed_site:-0}" -ge $(($(cycles_of tms870) * 9 / 50)) ] || fail "tms870: $replayed_site site messages replayed"
 
 grep -q '^mgc: summary: lift not completed' "$tmp/impostor.out" || fail "impostor: its lift completed"
 read -r states plans accepted refused alerts rest <<<"$(site_counts impostor)"
