@@ -489,8 +489,9 @@ void configure_hal(hal::Hal& hal, const Identity& identity) {
   }
 }
 
-std::size_t ring_bytes_for_minutes(double minutes) noexcept {
-  const double bytes = std::max(0.0, minutes) * 60.0 * static_cast<double>(kMeasuredBytesPerSecond);
+std::size_t ring_bytes_for_minutes(double minutes, std::size_t site_peers) noexcept {
+  const double rate = static_cast<double>(kMeasuredBytesPerSecond + site_peers * kSitePeerBytesPerSecond);
+  const double bytes = std::max(0.0, minutes) * 60.0 * rate;
   const auto blocks = std::max<std::size_t>(2, static_cast<std::size_t>(std::ceil(bytes / static_cast<double>(kBlockBytes))));
   return kFileHeaderBytes + blocks * kBlockBytes;
 }

@@ -155,7 +155,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1000));
   app.add_option("--black-box", black_box_file,
                  "record what the loop received and decided into this ring file (docs/black-box.md; mgc-replay replays it)");
-  app.add_option("--black-box-minutes", black_box_minutes, "the ring holds about this many minutes of the thesis lift")
+  app.add_option("--black-box-minutes", black_box_minutes, "the ring holds about this many minutes of the thesis lift, and of a site member's site messages")
       ->capture_default_str()
       ->check(CLI::Range(0.1, 1440.0));
   try {
@@ -249,8 +249,9 @@ int main(int argc, char** argv) {
     std::unique_ptr<firmware::black_box::BlackBox> black_box;
     std::unique_ptr<firmware::black_box::RecordingBus> recording_bus;
     if (!black_box_file.empty()) {
+      const std::size_t site_peers = site_member ? site_member->site.machines.size() - 1 : 0;
       black_box = std::make_unique<firmware::black_box::BlackBox>(black_box_file, identity,
-                                                                  firmware::black_box::ring_bytes_for_minutes(black_box_minutes));
+                                                                  firmware::black_box::ring_bytes_for_minutes(black_box_minutes, site_peers));
       recording_bus = std::make_unique<firmware::black_box::RecordingBus>(*opened.bus, *black_box);
     }
     hal::CanBus& hal_bus = recording_bus ? static_cast<hal::CanBus&>(*recording_bus) : *opened.bus;

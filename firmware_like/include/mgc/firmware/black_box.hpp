@@ -41,6 +41,9 @@ inline constexpr std::size_t kBlockBytes = 64 * 1024;      //!< header + records
 inline constexpr std::size_t kRecordHeaderBytes = 8;       //!< crc32, type, payload length [bytes]
 //! What the thesis lift records, measured with mgc on mgc-sim over UDP (docs/black-box.md). [bytes/s]
 inline constexpr std::size_t kMeasuredBytesPerSecond = 45'000;
+//! What each other machine of a site adds to a member's recording: 20 states of 304 bytes and a
+//! plan of 4,701 bytes a second (docs/black-box.md). [bytes/s]
+inline constexpr std::size_t kSitePeerBytesPerSecond = 10'800;
 inline constexpr double kDefaultMinutes = 10.0;            //!< [min]
 inline constexpr std::int64_t kFlushPeriodUs = 250'000;    //!< write + fdatasync at least this often [µs]
 inline constexpr std::size_t kQueueCapacity = 8192;        //!< entries: about 9 s of the thesis lift [-]
@@ -187,8 +190,9 @@ void set_site_member(Identity& identity, const planning::Site& site, std::int32_
 //! Applies the identity's deadband and plausible ranges to a Hal.
 void configure_hal(hal::Hal& hal, const Identity& identity);
 
-//! The file's size for a ring of this many minutes at the measured rate. [bytes]
-[[nodiscard]] std::size_t ring_bytes_for_minutes(double minutes) noexcept;
+//! The file's size for a ring of this many minutes at the measured rates: the lift's, and each
+//! other machine's site messages for a site member. [bytes]
+[[nodiscard]] std::size_t ring_bytes_for_minutes(double minutes, std::size_t site_peers = 0) noexcept;
 
 struct WriterStats {
   std::uint64_t entries_written = 0;
