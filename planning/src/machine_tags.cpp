@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <string>
 
 namespace mgc::planning {
 namespace {
@@ -67,6 +68,31 @@ TagMount resolve_tag_mount(const MachineModel& model, std::string_view name) {
   const Mount* m = find(model.kind(), model.bodies().size() > 0 && model.body_index("girder") >= 0, name);
   if (m == nullptr) return {};
   if (!m->frame) return {false, model.body_index(name)};
+  const auto frames = model.frame_names();
+  const auto it = std::find(frames.begin(), frames.end(), name);
+  return {true, it == frames.end() ? -1 : static_cast<int>(it - frames.begin())};
+}
+
+namespace {
+
+bool site_hook(MachineKind kind, bool dual_crane, std::string_view name) noexcept {
+  return name == "hook" && !dual_crane && (kind == MachineKind::MobileCrane || kind == MachineKind::TowerCrane);
+}
+
+}  // namespace
+
+std::string site_tag_mount_problem(MachineKind kind, bool dual_crane, std::string_view name) {
+  if (site_hook(kind, dual_crane, name) || find(kind, dual_crane, name) != nullptr) return {};
+  std::string text = "a body or frame the joints pose: one of ";
+  for (const Mount& m : mounts(kind, dual_crane)) text += std::string(m.name) + ", ";
+  if (site_hook(kind, dual_crane, "hook")) text += "hook, ";
+  text.resize(text.size() - 2);
+  return text;
+}
+
+TagMount resolve_site_tag_mount(const MachineModel& model, std::string_view name) {
+  const bool dual = model.body_index("girder") >= 0;
+  if (!site_hook(model.kind(), dual, name)) return resolve_tag_mount(model, name);
   const auto frames = model.frame_names();
   const auto it = std::find(frames.begin(), frames.end(), name);
   return {true, it == frames.end() ? -1 : static_cast<int>(it - frames.begin())};

@@ -62,7 +62,7 @@ TEST_CASE("the shipped site reads into its two machines, buses and crossing lift
   CHECK(tms.world_from_base.translation().isZero());
   CHECK(tms.bus.controller_url() == "udp:127.0.0.1:47011,peer=127.0.0.1:47010");
   CHECK(tms.bus.machine_url() == "udp:127.0.0.1:47010,peer=127.0.0.1:47011");
-  CHECK(tms.uwb_tag_ids.empty());
+  CHECK(tms.uwb_tags.empty());
   REQUIRE(tms.lifts.size() == 1);
   REQUIRE(tms.lifts[0].task.has_value());
   CHECK(tms.lifts[0].task->load_lb == 20000.0);
@@ -74,7 +74,14 @@ TEST_CASE("the shipped site reads into its two machines, buses and crossing lift
   CHECK(tower.priority == 1);
   CHECK(tower.machine.kind == MachineKind::TowerCrane);
   CHECK(tower.world_from_base.translation().isApprox(Eigen::Vector3d(-40, -10, 0)));
-  CHECK(tower.uwb_tag_ids == std::vector<int>{1, 2, 3});
+  REQUIRE(tower.uwb_tags.size() == 4);
+  CHECK(tower.uwb_tags[0].id == 1);
+  CHECK(tower.uwb_tags[0].body == "jib");
+  CHECK(tower.uwb_tags[0].position_m.isApprox(Eigen::Vector3d(0, 0, 29.85)));
+  CHECK(tower.uwb_tags[1].body == "trolley");
+  CHECK(tower.uwb_tags[2].body == "counter_jib");
+  CHECK(tower.uwb_tags[3].id == 4);
+  CHECK(tower.uwb_tags[3].body == "hook");
   REQUIRE(tower.lifts.size() == 1);
   CHECK(tower.lifts[0].goal[1] == 45.0);
 
@@ -179,18 +186,23 @@ TEST_CASE("site refusals: one line naming the file, the line and the field", "[u
     CHECK(load_error(replace_first(text, "socketcan: vcan1", "socketcan: vcan456789abcdef")) ==
           ":45: machines[0].bus.socketcan: expected an interface name of at most 15 characters, got 'vcan456789abcdef'");
   }
-  SECTION("a UWB tag id another machine has") {
-    const std::string text = replace_first(good, "    priority: 2\n", "    priority: 2\n    uwb_tag_ids: [3]\n");
+  SECTION("a UWB tag id another machine has, a tag on a swinging body, a tag far from its mount") {
+    const std::string text = replace_first(good, "    priority: 2\n", "    priority: 2\n    uwb_tags: [{id: 3, body: carrier, position_m: [0, 0, 0]}]\n");
     CHECK(load_error(text) ==
-          ":75: machines[1].uwb_tag_ids[2]: expected a tag id no other machine has (machines[0].uwb_tag_ids[0], line 44), got '3'");
+          ":78: machines[1].uwb_tags[2].id: expected a tag id no other tag has (machines[0].uwb_tags[0].id, line 44), got '3'");
+    CHECK(load_error(replace_first(good, "body: hook", "body: load")) ==
+          ":78: machines[1].uwb_tags[3].body: expected a body or frame the joints pose: one of mast, jib, counter_jib, slew, trolley, "
+          "hook, got 'load'");
+    CHECK(load_error(replace_first(good, "[0, 0, 29.85]", "[0, 0, 129.85]")) ==
+          ":75: machines[1].uwb_tags[0].position_m: expected a position within 100 m of the body's origin, got a list of 3");
   }
   SECTION("a start outside the machine's joint range") {
     const std::string error = load_error(replace_first(good, "trolley_radius_m: 30", "trolley_radius_m: 70"));
-    CHECK(error.rfind(":82: machines[1].lifts[0].start.trolley_radius_m: expected a value within the joint range [3, 59.7] m", 0) == 0);
+    CHECK(error.rfind(":86: machines[1].lifts[0].start.trolley_radius_m: expected a value within the joint range [3, 59.7] m", 0) == 0);
   }
   SECTION("a lift without a task on a crane") {
     const std::string text = replace_first(good, "        task:\n          load_size_m: [2.0, 2.0, 2.0]\n          sling_length_m: 2.0\n", "");
-    CHECK(load_error(text) == ":76: machines[1].lifts[0].task: missing field");
+    CHECK(load_error(text) == ":80: machines[1].lifts[0].task: missing field");
   }
   SECTION("more than 16 machines") {
     std::string text = good;
@@ -203,7 +215,7 @@ TEST_CASE("site refusals: one line naming the file, the line and the field", "[u
   }
   SECTION("an unknown field") {
     CHECK(load_error(replace_first(good, "    priority: 1\n", "    priority: 1\n    colour: red\n")) ==
-          ":72: machines[1].colour: unknown field (known fields here: base, bus, id, lifts, machine, priority, uwb_tag_ids)");
+          ":72: machines[1].colour: unknown field (known fields here: base, bus, id, lifts, machine, priority, uwb_tags)");
   }
   SECTION("a name longer than the loader's limit") {
     const std::string error = load_error(replace_first(good, "name: thesis-steel-frame-site", "name: " + std::string(65, 'x')));

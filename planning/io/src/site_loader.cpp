@@ -7,6 +7,7 @@
 #include <set>
 #include <string>
 
+#include "mgc/planning/machine_tags.hpp"
 #include "scenario_fields.hpp"
 #include "yaml_fields.hpp"
 
@@ -124,14 +125,28 @@ SiteMachine read_machine_entry(const Value& value, const std::filesystem::path& 
   }
   owners.priorities[m.priority] = {priority.file(), priority.line(), priority.path()};
   m.bus = read_bus(f.required("bus"), owners.bus);
-  if (auto tags = f.optional("uwb_tag_ids")) {
+  if (auto tags = f.optional("uwb_tags")) {
     for (const Value& tag : tags->list()) {
-      const int t = tag.integer(0, 255);
-      if (auto it = owners.tags.find(t); it != owners.tags.end()) {
-        tag.fail("a tag id no other machine has (" + it->second.field + ", " + line_of(it->second) + ")");
+      if (m.uwb_tags.size() == kMaxMachineTags) tag.fail_plain("at most " + std::to_string(kMaxMachineTags) + " tags on one machine");
+      Fields tf = tag.fields();
+      MachineTagSpec t;
+      const Value tag_id = tf.required("id");
+      t.id = tag_id.integer(0, 255);
+      if (auto it = owners.tags.find(t.id); it != owners.tags.end()) {
+        tag_id.fail("a tag id no other tag has (" + it->second.field + ", " + line_of(it->second) + ")");
       }
-      owners.tags[t] = {tag.file(), tag.line(), tag.path()};
-      m.uwb_tag_ids.push_back(t);
+      owners.tags[t.id] = {tag_id.file(), tag_id.line(), tag_id.path()};
+      const Value body = tf.required("body");
+      t.body = body.name();
+      if (const std::string problem = site_tag_mount_problem(m.machine.kind, false, t.body); !problem.empty()) body.fail(problem);
+      t.ref = {body.file(), body.line(), body.path()};
+      const Value position = tf.required("position_m");
+      t.position_m = position.position_m();
+      if (!(t.position_m.norm() <= kMaxMachineTagOffset_m)) {
+        position.fail("a position within 100 m of the body's origin");
+      }
+      tf.finish();
+      m.uwb_tags.push_back(std::move(t));
     }
   }
   const Value lifts = f.required("lifts");

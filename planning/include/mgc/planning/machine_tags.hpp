@@ -35,6 +35,17 @@ struct TagMount {
 //! Start-up only.
 [[nodiscard]] TagMount resolve_tag_mount(const MachineModel& model, std::string_view name);
 
+//! A tag of the site's RTLS on a machine of a coordinated site (the site file's `uwb_tags`), which
+//! poses that machine while its own messages are stale: every mount tag_mount_problem() accepts,
+//! and on a crane also the frame `hook`, which the model hangs plumb below the boom tip or trolley
+//! (a tag there sees the hoist; its sway shows in the fit's residual). Empty when accepted,
+//! otherwise what was expected. Start-up only.
+[[nodiscard]] std::string site_tag_mount_problem(MachineKind kind, bool dual_crane, std::string_view name);
+
+//! The mount `name` as site_tag_mount_problem() accepts it; index -1 when the model has none.
+//! Start-up only.
+[[nodiscard]] TagMount resolve_site_tag_mount(const MachineModel& model, std::string_view name);
+
 //! World position of a tag at local_m in its mount, from a forward kinematics result. RT-safe.
 [[nodiscard]] inline Eigen::Vector3d tag_position(const Kinematics& k, const TagMount& mount,
                                                   const Eigen::Vector3d& local_m) noexcept {

@@ -51,7 +51,9 @@ struct SiteMachine {
   MachineDefinition machine;
   Eigen::Isometry3d world_from_base = Eigen::Isometry3d::Identity();
   SiteBus bus;
-  std::vector<int> uwb_tag_ids;  //!< the site's UWB tags fixed to this machine; may be empty
+  //! The site's UWB tags fixed to this machine, where each sits (site_tag_mount_problem()); may be
+  //! empty. They pose it while its messages are stale (docs/site.md, "Staleness").
+  std::vector<MachineTagSpec> uwb_tags;
   std::vector<SiteLift> lifts;   //!< in the order the machine performs them
   SourceRef ref;                 //!< the machine's entry in `machines`
   SourceRef base_ref;            //!< its `base`
