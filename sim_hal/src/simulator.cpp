@@ -64,7 +64,8 @@ Simulator::Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimCo
       plan_(bus_plan_for(scenario)),
       random_(config_.seed),
       machine_tag_random_(config_.seed ^ 0x6d616368696e65ULL),
-      inclinometer_random_(config_.seed ^ 0x696e636c696eULL) {
+      inclinometer_random_(config_.seed ^ 0x696e636c696eULL),
+      site_tag_random_(config_.seed ^ 0x73697465746167ULL) {
   if (!(config_.physics_rate_hz >= 100.0 && config_.physics_rate_hz <= 10'000.0)) {
     throw std::invalid_argument("physics rate must be 100..10000 Hz");
   }
@@ -157,6 +158,24 @@ Eigen::Vector3d Simulator::tag_position(const SimTag& tag) const noexcept {
   return obstacle_pose(tag.obstacle) * tag.position_m;
 }
 
+void Simulator::add_site_tags(std::vector<SiteSimTag> tags) {
+  if (started_) throw std::logic_error("Simulator::add_site_tags after the first step");
+  for (const SiteSimTag& t : tags) {
+    if (t.model == nullptr || t.truth == nullptr || t.mount.index < 0) throw std::invalid_argument("site tag " + std::to_string(t.tag_id) + ": no model, truth or mount");
+  }
+  site_tags_ = std::move(tags);
+  next_site_fix_us_.assign(site_tags_.size(), 0);
+  site_tag_sequence_.assign(site_tags_.size(), 0);
+}
+
+Eigen::Vector3d Simulator::site_tag_position(const SiteSimTag& tag) const noexcept {
+  const int n = tag.model->dof();
+  planning::JointVector q(n);
+  for (int j = 0; j < n; ++j) q[j] = tag.truth->position[static_cast<std::size_t>(j)];
+  tag.model->forward_kinematics(q, site_kinematics_);
+  return planning::tag_position(site_kinematics_, tag.mount, tag.position_m);
+}
+
 std::int64_t Simulator::next_event_us() const noexcept {
   if (!started_) return 0;
   std::int64_t next = physics_us_ + physics_step_us_;
@@ -203,6 +222,11 @@ void Simulator::step(std::int64_t now_us) noexcept {
       const double slot = machine ? static_cast<double>(t - obstacle_tags) + 0.5 : static_cast<double>(t);
       const double slots = static_cast<double>(machine ? machine_tags : obstacle_tags);
       next_fix_us_[t] = now_us + static_cast<std::int64_t>(kUsPerS / config_.uwb.rate_hz * slot / slots);
+    }
+    // The other machines' tags a quarter period after the scenario's: none of theirs moves.
+    for (std::size_t t = 0; t < site_tags_.size(); ++t) {
+      const double slot = static_cast<double>(t) + 0.25;
+      next_site_fix_us_[t] = now_us + static_cast<std::int64_t>(kUsPerS / config_.uwb.rate_hz * slot / static_cast<double>(site_tags_.size()));
     }
     for (std::size_t i = 0; i < num_nodes_; ++i) boot(nodes_[i], now_us);
   }
@@ -549,31 +573,43 @@ void Simulator::emit_uwb(std::int64_t now_us) noexcept {
     next_fix_us_[t] += period_us;
     if (next_fix_us_[t] <= now_us) next_fix_us_[t] = now_us + period_us;
     if (gateway.state != NmtState::Operational || silent) continue;
-    ++counters_.tag_fixes;
     tag_sequence_[t] = static_cast<std::uint8_t>((tag_sequence_[t] + 1) % hal::pdo::kUwbSequenceModulo);
-    double sigma = config_.uwb.noise_sigma_m;
-    const Fault* noisy = find_fault(FaultKind::TagNoise, FaultTarget::Kind::Tag, tags_[t].tag_id);
-    const double extra = noisy != nullptr ? noisy->sigma_m : 0.0;
-    const Eigen::Vector3d truth = tag_position(tags_[t]);
-    planning::Random& random = tags_[t].on_machine ? machine_tag_random_ : random_;
-    hal::pdo::UwbTagPosition fix{plan_.uwb_gateway_node_id, tags_[t].tag_id, {}, tag_sequence_[t], uwb_quality(sigma)};
-    bool in_range = true;
-    for (int a = 0; a < 3; ++a) {
-      const double noise = sigma * gaussian(random) + extra * gaussian(random);
-      const auto c = hal::pdo::metres_to_uwb_counts(truth[a] + noise);
-      in_range = in_range && c.ok();
-      fix.position_cm[static_cast<std::size_t>(a)] = c.value;
-    }
-    if (!in_range) {
-      fix.quality = hal::pdo::kUwbQualityNoFix;
-      fix.position_cm.fill(hal::pdo::kUwbNoPosition);
-    }
-    if (random.uniform() < config_.uwb.dropout_probability) {
-      ++counters_.tag_fixes_dropped;
-      continue;
-    }
-    queue(hal::pdo::encode_uwb_tag_position(fix).value, now_us, latency_us);
+    emit_fix(tags_[t].tag_id, tag_sequence_[t], tag_position(tags_[t]), tags_[t].on_machine ? machine_tag_random_ : random_, now_us,
+             latency_us);
   }
+  for (std::size_t t = 0; t < site_tags_.size(); ++t) {
+    if (now_us < next_site_fix_us_[t]) continue;
+    next_site_fix_us_[t] += period_us;
+    if (next_site_fix_us_[t] <= now_us) next_site_fix_us_[t] = now_us + period_us;
+    if (gateway.state != NmtState::Operational || silent) continue;
+    site_tag_sequence_[t] = static_cast<std::uint8_t>((site_tag_sequence_[t] + 1) % hal::pdo::kUwbSequenceModulo);
+    emit_fix(site_tags_[t].tag_id, site_tag_sequence_[t], site_tag_position(site_tags_[t]), site_tag_random_, now_us, latency_us);
+  }
+}
+
+void Simulator::emit_fix(std::uint8_t tag_id, std::uint8_t sequence, const Eigen::Vector3d& truth, planning::Random& random,
+                         std::int64_t now_us, std::int64_t latency_us) noexcept {
+  ++counters_.tag_fixes;
+  const double sigma = config_.uwb.noise_sigma_m;
+  const Fault* noisy = find_fault(FaultKind::TagNoise, FaultTarget::Kind::Tag, tag_id);
+  const double extra = noisy != nullptr ? noisy->sigma_m : 0.0;
+  hal::pdo::UwbTagPosition fix{plan_.uwb_gateway_node_id, tag_id, {}, sequence, uwb_quality(sigma)};
+  bool in_range = true;
+  for (int a = 0; a < 3; ++a) {
+    const double noise = sigma * gaussian(random) + extra * gaussian(random);
+    const auto c = hal::pdo::metres_to_uwb_counts(truth[a] + noise);
+    in_range = in_range && c.ok();
+    fix.position_cm[static_cast<std::size_t>(a)] = c.value;
+  }
+  if (!in_range) {
+    fix.quality = hal::pdo::kUwbQualityNoFix;
+    fix.position_cm.fill(hal::pdo::kUwbNoPosition);
+  }
+  if (random.uniform() < config_.uwb.dropout_probability) {
+    ++counters_.tag_fixes_dropped;
+    return;
+  }
+  queue(hal::pdo::encode_uwb_tag_position(fix).value, now_us, latency_us);
 }
 
 void Simulator::queue(const CanFrame& frame, std::int64_t now_us, std::int64_t extra_delay_us) noexcept {

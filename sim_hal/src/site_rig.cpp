@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/sim/site_rig.hpp"
+#include "mgc/sim/site_simulation.hpp"
 
 #include <mgc/alert_t.hpp>
 
@@ -44,7 +45,9 @@ SiteRig::SiteRig(const planning::Site& site, SiteRigConfig config, const std::st
     SiteRigMember& m = members_[i];
     m.machine_id = site_.machines[i].id;
     const planning::Scenario lift = planning::lift_scenario(site_, i, 0);
-    m.rig = std::make_unique<SteppedRig>(lift, SteppedRig::quiet_config(), bus_prefix + "-" + std::to_string(m.machine_id));
+    SimConfig sim = SteppedRig::quiet_config();
+    sim.uwb = config_.uwb;
+    m.rig = std::make_unique<SteppedRig>(lift, sim, bus_prefix + "-" + std::to_string(m.machine_id));
     m.rig->calibrate_valves();
     firmware::SiteMemberConfig member;
     member.site = site_;
@@ -57,6 +60,9 @@ SiteRig::SiteRig(const planning::Site& site, SiteRigConfig config, const std::st
     m.rig->on_cycle = [this, i](const hal::SensorSnapshot& s) { cycle(i, s); };
   }
   for (const SiteRigMember& m : members_) truths_.push_back(&m.rig->sim->truth());
+  std::vector<Simulator*> sims;
+  for (const SiteRigMember& m : members_) sims.push_back(m.rig->sim.get());
+  tag_models_ = add_site_tags(site_, sims);
 }
 
 SiteRig::~SiteRig() = default;
@@ -164,7 +170,9 @@ void SiteRig::cycle(std::size_t i, const hal::SensorSnapshot& s) {
     const firmware::SnapshotAlert& alert = g.alerts[static_cast<std::size_t>(a)];
     // The site alert is the only one measured in seconds from the collision or sensing sources
     // that names a machine id.
-    const bool site = alert.value_unit == mgc::alert_t::UNIT_SECOND && alert.index > 0 &&
+    // The rules' (unit s: the meet time) or a stale machine's (unit none: what poses it).
+    const bool unit = alert.value_unit == (alert.source == mgc::alert_t::SOURCE_SENSING ? mgc::alert_t::UNIT_NONE : mgc::alert_t::UNIT_SECOND);
+    const bool site = unit && alert.index > 0 &&
                       (alert.source == mgc::alert_t::SOURCE_SENSING || alert.source == mgc::alert_t::SOURCE_COLLISION) &&
                       alert.limit == config_.rules.horizon_s;
     site_alert = site_alert || site;

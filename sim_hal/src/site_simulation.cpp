@@ -14,6 +14,33 @@ constexpr double kTimeSlack_s = 1e-9;
 
 }  // namespace
 
+std::vector<std::unique_ptr<planning::MachineModel>> add_site_tags(const planning::Site& site, std::span<Simulator* const> sims) {
+  if (sims.size() != site.machines.size()) throw std::invalid_argument("site tags: a simulator per machine expected");
+  std::vector<std::unique_ptr<planning::MachineModel>> models;
+  std::vector<std::vector<SiteSimTag>> seen(sims.size());
+  for (std::size_t k = 0; k < site.machines.size(); ++k) {
+    const planning::SiteMachine& m = site.machines[k];
+    if (m.uwb_tags.empty()) continue;
+    models.push_back(planning::build_model(planning::lift_scenario(site, k, 0)));
+    for (const planning::MachineTagSpec& t : m.uwb_tags) {
+      SiteSimTag tag;
+      tag.tag_id = static_cast<std::uint8_t>(t.id);
+      tag.model = models.back().get();
+      tag.mount = planning::resolve_site_tag_mount(*tag.model, t.body);
+      if (tag.mount.index < 0) {
+        throw std::invalid_argument("site machine " + std::to_string(m.id) + " tag " + std::to_string(t.id) + ": no body or frame '" + t.body + "'");
+      }
+      tag.position_m = t.position_m;
+      tag.truth = &sims[k]->truth();
+      for (std::size_t i = 0; i < sims.size(); ++i) {
+        if (i != k) seen[i].push_back(tag);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < sims.size(); ++i) sims[i]->add_site_tags(std::move(seen[i]));
+  return models;
+}
+
 SiteSimulation::SiteSimulation(const planning::Site& site, std::span<hal::CanBus* const> buses, const SimConfig& config,
                                std::optional<TruthMonitorConfig> monitor) {
   if (buses.size() != site.machines.size()) {
@@ -29,6 +56,9 @@ SiteSimulation::SiteSimulation(const planning::Site& site, std::span<hal::CanBus
     truths_.push_back(&sims_.back()->truth());
     if (monitor) monitors_.push_back(std::make_unique<TruthMonitor>(*scenarios_.back(), *monitor));
   }
+  std::vector<Simulator*> sims;
+  for (const auto& sim : sims_) sims.push_back(sim.get());
+  tag_models_ = add_site_tags(site, sims);
   if (monitor) {
     period_s_ = monitor->period_s;
     referee_ = std::make_unique<SitePairReferee>(site, monitor->clearance_margin_m);

@@ -92,12 +92,31 @@ struct SimTag {
   planning::TagMount mount{};                             //!< resolved by the Simulator
 };
 
+//! A tag of the site's RTLS on another machine of a coordinated site (the site file's `uwb_tags`):
+//! this simulator's UWB gateway reports it, from that machine's true joints (its own simulator's
+//! TrueState) through that machine's model. The model and the truth outlive the simulator.
+struct SiteSimTag {
+  std::uint8_t tag_id = 0;
+  const planning::MachineModel* model = nullptr;
+  planning::TagMount mount{};
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  //!< in the mount's frame [m]
+  const TrueState* truth = nullptr;
+};
+
 class Simulator {
  public:
   //! The scenario's machine starts at rest at its start configuration, every node booting. The
   //! bus must outlive the simulator. Throws std::invalid_argument for a machine without a bus
   //! plan or a configuration out of range.
   Simulator(const planning::Scenario& scenario, hal::CanBus& bus, SimConfig config);
+
+  //! Adds tags on the other machines of a site, reported with the same noise, rate, latency and
+  //! dropouts as the scenario's tags, from a noise stream of their own (every other fix stays as it
+  //! was), in slots of their own between the scenario's. Before the first step() only.
+  void add_site_tags(std::vector<SiteSimTag> tags);
+  [[nodiscard]] const std::vector<SiteSimTag>& site_tags() const noexcept { return site_tags_; }
+  //! World position of a site tag now, from its machine's latest true joints [m].
+  [[nodiscard]] Eigen::Vector3d site_tag_position(const SiteSimTag& tag) const noexcept;
 
   //! Runs the machine up to now_us (on the bus's clock): physics in fixed steps, then every
   //! received frame, then every frame due. The first call fixes simulation time 0.
@@ -149,6 +168,9 @@ class Simulator {
   //! The inclinometer's answer to a SYNC: its filtered angle with noise, or its fault's.
   void emit_inclinometer(std::int64_t now_us) noexcept;
   void emit_uwb(std::int64_t now_us) noexcept;
+  //! One fix of a tag at truth: noise, range, dropout, queued with the latency.
+  void emit_fix(std::uint8_t tag_id, std::uint8_t sequence, const Eigen::Vector3d& truth, planning::Random& random,
+                std::int64_t now_us, std::int64_t latency_us) noexcept;
   void queue(const hal::CanFrame& frame, std::int64_t now_us, std::int64_t extra_delay_us = 0) noexcept;
   void flush(std::int64_t now_us) noexcept;
   void boot(Node& node, std::int64_t now_us) noexcept;
@@ -216,6 +238,12 @@ class Simulator {
   // UWB gateway: per tag, the next fix time and sequence.
   std::vector<std::int64_t> next_fix_us_;
   std::vector<std::uint8_t> tag_sequence_;
+  // The other machines' tags (add_site_tags()), likewise, with their own noise stream.
+  std::vector<SiteSimTag> site_tags_;
+  std::vector<std::int64_t> next_site_fix_us_;
+  std::vector<std::uint8_t> site_tag_sequence_;
+  planning::Random site_tag_random_;
+  mutable planning::Kinematics site_kinematics_{};
 
   // Outgoing frames, each with its release time (latency, delay faults).
   std::array<Pending, kPendingCapacity> pending_{};

@@ -49,6 +49,9 @@ struct SiteRigConfig {
   //! Per machine in site order, when its first lift's goal is requested (simulation time); a
   //! negative time never. Missing entries: 0. [s]
   std::vector<double> lift_start_s;
+  //! Every machine's UWB gateway (the site's tags on the other machines): quiet by default, like
+  //! the rest of the rig's sensors; UwbParams{} is the single-machine scenarios' noise model. [-]
+  UwbParams uwb = SteppedRig::quiet_config().uwb;
   //! The referee's period. [s]
   double truth_period_s = 0.05;
   //! When set, the rig reads it before and after each Controller::step and adds the difference to
@@ -147,6 +150,7 @@ class SiteRig {
   std::vector<bool> muted_;
   SitePairReferee referee_;
   std::vector<const TrueState*> truths_;  //!< each member's simulator's, in site order, for the referee
+  std::vector<std::unique_ptr<planning::MachineModel>> tag_models_;  //!< the site tags' (add_site_tags())
   std::mt19937_64 rng_;
   std::int64_t t_us_ = 0;
   double next_truth_s_ = 0.0;

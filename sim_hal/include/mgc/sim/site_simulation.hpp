@@ -24,12 +24,20 @@
 
 namespace mgc::sim {
 
+//! The site's RTLS in every simulator: each machine's `uwb_tags` (site file) reported by every other
+//! machine's simulator (sims in site order, none started yet), from the tagged machine's true joints
+//! through its model (its first lift's). Returns those models, which the caller keeps as long as
+//! the simulators. Start-up only; throws std::invalid_argument for a mount the model lacks.
+[[nodiscard]] std::vector<std::unique_ptr<planning::MachineModel>> add_site_tags(const planning::Site& site,
+                                                                                 std::span<Simulator* const> sims);
+
 class SiteSimulation {
  public:
   //! One simulator per machine of the site, in site order, on buses[i] (each outlives this), with
   //! config (a site file has no `simulation` section) and the seed plus the machine's index (each
   //! machine its own noise). With a monitor configuration, a TruthMonitor per machine and the pair
-  //! referee with its margin, sampled every monitor period. Allocates. Throws
+  //! referee with its margin, sampled every monitor period; every machine's site tags reported by
+  //! the others' simulators (add_site_tags()). Allocates. Throws
   //! std::invalid_argument for a bus count not the site's or a machine the simulator refuses.
   SiteSimulation(const planning::Site& site, std::span<hal::CanBus* const> buses, const SimConfig& config,
                  std::optional<TruthMonitorConfig> monitor);
@@ -59,6 +67,7 @@ class SiteSimulation {
   std::vector<std::int32_t> ids_;
   std::vector<std::unique_ptr<planning::Scenario>> scenarios_;  //!< each simulator keeps a reference
   std::vector<std::unique_ptr<Simulator>> sims_;
+  std::vector<std::unique_ptr<planning::MachineModel>> tag_models_;  //!< the site tags' (add_site_tags())
   std::vector<std::unique_ptr<TruthMonitor>> monitors_;
   std::unique_ptr<SitePairReferee> referee_;
   std::vector<const TrueState*> truths_;
