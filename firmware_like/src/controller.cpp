@@ -839,7 +839,7 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
     predict_approach();
   }
   site_worlds_due_ = false;
-  if (site_ && site != nullptr && have_reading_) site_cycle(*site);
+  if (site_ && site != nullptr && have_reading_) site_cycle(*site, s);
 
   // The sensors and the valve against the previous cycle's command, which the valve applies now.
   const guidance::PlausibilityResult& plausible = monitor_.update(
@@ -1284,10 +1284,15 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
   // The site: a stop or slow-down the rules ask for, or a machine stale or never heard (index: its id).
   const bool site_alert = site_ && have_reading_ && (site_motion_ != SiteMotion::Proceed || site_stale_);
   const int site_for = site_ ? site_roster_.index_of(site_decision_.motion_for_id) : -1;
+  // A stale machine's alert says what poses it: its value is the SitePrediction (UWB tags, frozen
+  // pose, whole reach), unit none.
+  const int stale_for = site_ && site_stale_ ? site_roster_.index_of(site_alert_id_) : -1;
+  const double site_value = stale_for >= 0 ? static_cast<double>(site_decision_.peers[static_cast<std::size_t>(stale_for)].prediction)
+                                           : (site_for >= 0 ? site_meet_s_[static_cast<std::size_t>(site_for)] : kNaN);
   raise(kAlertSite, site_alert,
         site_motion_ == SiteMotion::Stop ? A::SEVERITY_STOP : (site_motion_ == SiteMotion::SlowDown ? A::SEVERITY_SLOW_DOWN : A::SEVERITY_WARN),
-        site_stale_ ? A::SOURCE_SENSING : A::SOURCE_COLLISION, A::CLEAR_WHEN_CONDITION_CLEARS, A::UNIT_SECOND,
-        site_for >= 0 ? site_meet_s_[static_cast<std::size_t>(site_for)] : kNaN, site_ ? site_->rules.horizon_s : kNaN, site_alert_id_);
+        site_stale_ ? A::SOURCE_SENSING : A::SOURCE_COLLISION, A::CLEAR_WHEN_CONDITION_CLEARS, stale_for >= 0 ? A::UNIT_NONE : A::UNIT_SECOND,
+        site_value, site_ ? site_->rules.horizon_s : kNaN, site_alert_id_);
   snap_.num_alerts = 0;
   for (std::size_t k = 0; k < kAlertKinds && snap_.num_alerts < kSnapshotMaxAlerts; ++k) {
     if (alert_active_[k]) snap_.alerts[static_cast<std::size_t>(snap_.num_alerts++)] = alerts_[k];
@@ -1382,7 +1387,7 @@ void Controller::site_park_copy(SitePeerModel& p, int copy) noexcept {
   }
 }
 
-void Controller::site_cycle(const SiteInputs& in) noexcept {
+void Controller::site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) noexcept {
   const SiteRulesConfig& rules = site_->rules;
   const double margin_m = config_.stop_check.stop_margin_m;
   const double skew_s = static_cast<double>(rules.max_skew_us) * 1e-6;
@@ -1464,41 +1469,78 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
     pin.state_received_us = m.state_received_us;
     pin.plan = m.has_plan ? &m.plan : nullptr;
     pin.meet_in_s = std::numeric_limits<double>::infinity();
+    pin.tags_posed = false;
     site_meet_s_[r] = pin.meet_in_s;
-    const std::int64_t age_us = now_us_ - m.state_received_us;
-    const bool live = m.has_state && age_us <= rules.stale_after_us();
-    const int nq = std::min<int>(m.state.num_joints, p.model->dof());
-    double peer_speed_m_s = 0.0;
-    double peer_reach_m = 0.0;
+    const bool live = m.has_state && now_us_ - m.state_received_us <= rules.stale_after_us();
     if (m.has_state) {
-      for (int j = 0; j < nq; ++j) {
-        const auto k = static_cast<std::size_t>(j);
-        p.q[j] = m.state.joint_position[k];
-        peer_speed_m_s += p.model->displacement_bound(j) * std::abs(m.state.joint_velocity[k]);
-        peer_reach_m += p.model->displacement_bound(j) * std::abs(m.state.stop_travel[k]);
-      }
+      for (int j = 0; j < std::min<int>(m.state.num_joints, p.model->dof()); ++j) p.q[j] = m.state.joint_position[static_cast<std::size_t>(j)];
     }
+    // The site's RTLS follows a tagged machine all along, so that its velocity is known the
+    // moment its messages stop.
+    const bool tags = p.num_tags > 0 &&
+                      site_fit_tags(p, s, p.q, m.has_state ? m.state_received_us - rules.max_skew_us : std::numeric_limits<std::int64_t>::min(),
+                                    now_us_, *site_)
+                          .valid;
     if (!live) {
       site_stale_ = true;
       if (site_alert_id_ == 0) site_alert_id_ = p.machine_id;
-      // Its UWB tags are not posed here: a stale machine is its frozen pose grown by its speed
+    }
+    if (!live && tags) {
+      // Stale, seen by its tags: posed where they put it, carried at their velocity, and judged by
+      // the mutual-stop rule as a machine that may not hear me (decide_site()).
+      pin.tags_posed = true;
+      ++stats_.site_tag_cycles;
+      site_state_t& t = p.tag_state;
+      t.num_joints = static_cast<std::int8_t>(p.model->dof());
+      t.plan_id = 0;
+      double rest_s = 0.0;
+      for (int j = 0; j < p.model->dof(); ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        const double a = p.model->joints()[k].max_acceleration;
+        const double v = p.tag_pose.v[j];
+        t.joint_position[k] = p.tag_pose.q[j];
+        t.joint_velocity[k] = v;
+        t.stop_travel[k] = v * std::abs(v) / (2.0 * a);
+        rest_s = std::max(rest_s, std::abs(v) / a);
+      }
+      t.time_to_rest_s = rest_s;
+    }
+    const site_state_t& st = live ? m.state : p.tag_state;
+    const std::int64_t age_us = now_us_ - (live ? m.state_received_us : p.tag_pose.t_us);
+    const int nq = std::min<int>(st.num_joints, p.model->dof());
+    double peer_speed_m_s = 0.0;
+    double peer_reach_m = 0.0;
+    if (live || tags || m.has_state) {
+      const site_state_t& from = live || tags ? st : m.state;
+      for (int j = 0; j < std::min<int>(from.num_joints, p.model->dof()); ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        p.q[j] = from.joint_position[k];
+        peer_speed_m_s += p.model->displacement_bound(j) * std::abs(from.joint_velocity[k]);
+        peer_reach_m += p.model->displacement_bound(j) * std::abs(from.stop_travel[k]);
+      }
+    }
+    if (!live && !tags) {
+      // Not seen by tags (none, or none fresh and plausible): its frozen pose grown by its speed
       // bound over the time unheard, or, never heard, anywhere it can reach.
+      ++stats_.site_frozen_cycles;
       if (!m.has_state) {
         stale_stop = true;
         site_park(p, 0);
         continue;
       }
-      const double grow_m = peer_reach_m + p.max_point_speed_m_s * (static_cast<double>(age_us) * 1e-6 + skew_s);
+      const double unheard_s = static_cast<double>(now_us_ - m.state_received_us) * 1e-6;
+      const double grow_m = peer_reach_m + p.max_point_speed_m_s * (unheard_s + skew_s);
       const double gap_m = site_gap_m(p, p.q, grow_m, q_wrapped_, margin_m + my_reach_m + kSiteBoundSlackM, &site_kin_) - my_reach_m;
       stale_stop = stale_stop || gap_m <= margin_m;
       continue;
     }
     const double t0_s = static_cast<double>(age_us) * 1e-6;
-    const bool uses_plan = m.state.plan_id != 0 && m.has_plan && m.plan.plan_id == m.state.plan_id;
-    const double grow_m = peer_reach_m + peer_speed_m_s * skew_s;
+    const bool uses_plan = live && m.state.plan_id != 0 && m.has_plan && m.plan.plan_id == m.state.plan_id;
+    // Live: what the state cannot say, its speed over the skew. From tags: the fit's own bound.
+    const double grow_m = peer_reach_m + (live ? peer_speed_m_s * skew_s : p.tag_pose.grow_m);
     // A machine at rest (one that waits, for me perhaps) does not take up its plan at full speed
     // at once: it stays where it is, grown by how far its joints' accelerations carry it.
-    const bool at_rest = peer_speed_m_s < kSiteRestSpeedMS && m.state.time_to_rest_s < kSiteRestSpeedMS;
+    const bool at_rest = peer_speed_m_s < kSiteRestSpeedMS && st.time_to_rest_s < kSiteRestSpeedMS;
     const auto start_reach_m = [&](double tau_s) noexcept {
       double reach_m = 0.0;
       for (int j = 0; j < nq; ++j) {
@@ -1510,14 +1552,14 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
     // Carried forward from the state, which is t0_s old: along its plan, or at its velocity.
     const auto predict = [&](double tau_s, planning::JointVector& q) noexcept {
       if (at_rest) {
-        for (int j = 0; j < nq; ++j) q[j] = m.state.joint_position[static_cast<std::size_t>(j)];
+        for (int j = 0; j < nq; ++j) q[j] = st.joint_position[static_cast<std::size_t>(j)];
         return;
       }
       if (uses_plan) {
-        site_plan_at(m.plan, m.state.plan_time_s + t0_s + tau_s, q);
+        site_plan_at(m.plan, st.plan_time_s + t0_s + tau_s, q);
         return;
       }
-      for (int j = 0; j < nq; ++j) q[j] = m.state.joint_position[static_cast<std::size_t>(j)] + m.state.joint_velocity[static_cast<std::size_t>(j)] * (t0_s + tau_s);
+      for (int j = 0; j < nq; ++j) q[j] = st.joint_position[static_cast<std::size_t>(j)] + st.joint_velocity[static_cast<std::size_t>(j)] * (t0_s + tau_s);
     };
     double meet_s = std::numeric_limits<double>::infinity();
     for (double tau_s = 0.0; tau_s <= horizon_s + 1e-9; tau_s += step_s) {
@@ -1529,7 +1571,10 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
       for (int j = 0; j < nq; ++j) between_m += p.model->displacement_bound(j) * std::abs(site_q2_[j] - site_q_[j]);
       if (tau_s == 0.0) between_m += peer_speed_m_s * step_s;
       for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, tau_s);
-      const double start_m = at_rest ? start_reach_m(t0_s + tau_s + skew_s) : 0.0;
+      // From tags: how far its joints' accelerations carry it off the velocity since that was
+      // measured, and the fits' noise on the velocity.
+      const double start_m = !live ? start_reach_m(p.tag_pose.velocity_lag_s + t0_s + tau_s) + p.tag_pose.speed_error_m_s * (t0_s + tau_s)
+                                   : (at_rest ? start_reach_m(t0_s + tau_s + skew_s) : 0.0);
       // Only a distance that can matter is measured: within the stop margin of my stop travel's
       // reach, and at the first sample within what both machines' speed bounds can close over the
       // horizon. Beyond it the bounding boxes alone show the machine clear: no narrow phase.
@@ -1604,11 +1649,38 @@ void Controller::site_cycle(const SiteInputs& in) noexcept {
   if (site_replan_) ++stats_.site_replans;
 }
 
+const SiteTagPose* Controller::site_tag_pose(std::int32_t machine_id) const noexcept {
+  for (const SitePeerModel& p : site_peers_) {
+    if (p.machine_id == machine_id && p.num_tags > 0) return &p.tag_pose;
+  }
+  return nullptr;
+}
+
 void Controller::site_pose_worlds(const SiteInputs& in) noexcept {
   const SiteRulesConfig& rules = site_->rules;
   const double skew_s = static_cast<double>(rules.max_skew_us) * 1e-6;
   for (SitePeerModel& p : site_peers_) {
     const SitePeerMessages& m = in.peers[static_cast<std::size_t>(p.roster_index)];
+    if (site_in_[static_cast<std::size_t>(p.roster_index)].tags_posed && now_us_ - m.state_received_us > rules.stale_after_us()) {
+      // Stale, posed from its tags as site_cycle() measured it: where they put it, and where its
+      // velocity's stop travel takes it.
+      const site_state_t& t = p.tag_state;
+      const int nt = std::min<int>(t.num_joints, p.model->dof());
+      double speed_m_s = 0.0;
+      double reach_m = 0.0;
+      for (int j = 0; j < nt; ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        p.q[j] = t.joint_position[k];
+        site_q2_[j] = t.joint_position[k] + t.stop_travel[k];
+        speed_m_s += p.model->displacement_bound(j) * std::abs(t.joint_velocity[k]);
+        reach_m += p.model->displacement_bound(j) * std::abs(t.stop_travel[k]);
+      }
+      const double age_s = static_cast<double>(now_us_ - p.tag_pose.t_us) * 1e-6;
+      site_pose_copy(p, 0, p.q, reach_m + p.tag_pose.grow_m + speed_m_s * age_s);
+      site_pose_copy(p, 1, site_q2_, p.tag_pose.grow_m + speed_m_s * age_s);
+      site_park(p, p.copies > 1 ? 2 : 1);
+      continue;
+    }
     // A machine never heard is parked by site_cycle(), every cycle.
     if (!m.has_state) continue;
     const std::int64_t age_us = now_us_ - m.state_received_us;

@@ -2,6 +2,8 @@
 #include "mgc/firmware/site_member.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -125,6 +127,20 @@ std::vector<SitePeerModel> make_site_peers(const SiteMemberConfig& config, const
     for (int kb = 0; kb < static_cast<int>(p.moving_bodies.size()); ++kb) {
       p.meet_world->set_dynamic_pose(kb, site_parked_pose(static_cast<int>(i), 0, kb));
     }
+    const std::vector<planning::MachineTagSpec>& tags = config.site.machines[i].uwb_tags;
+    if (tags.size() > planning::kMaxMachineTags) throw std::invalid_argument("site machine " + std::to_string(p.machine_id) + ": too many UWB tags");
+    for (const planning::MachineTagSpec& t : tags) {
+      const auto k = static_cast<std::size_t>(p.num_tags++);
+      p.tag_ids[k] = static_cast<std::uint8_t>(t.id);
+      p.tag_mounts[k] = planning::resolve_site_tag_mount(*p.model, t.body);
+      if (p.tag_mounts[k].index < 0) {
+        throw std::invalid_argument("site machine " + std::to_string(p.machine_id) + " tag " + std::to_string(t.id) + ": no body or frame '" + t.body + "'");
+      }
+      p.tag_local_m[k] = t.position_m;
+    }
+    p.tag_pose.q = p.q;
+    p.tag_pose.v = planning::JointVector::Zero(p.q.size());
+    for (auto& q : p.tag_track.fit_q) q = p.q;
     p.higher = config.site.machines[i].priority < config.site.machines[me].priority;
     p.copies = copies_of(config, me, i);
     // Nothing known parked yet: the first park sets every copy.
@@ -153,6 +169,186 @@ double site_plan_copy_time_s(const site_plan_t& plan, int w, int c, int copies) 
   const double first_s = plan.waypoint_time_s[0];
   const double last_s = plan.waypoint_time_s[std::clamp<int>(w, 1, site_plan_t::MAX_WAYPOINTS) - 1];
   return first_s + (last_s - first_s) * static_cast<double>(c) / static_cast<double>(std::max(copies, 1));
+}
+
+namespace {
+
+//! A joint whose unit motion moves the fresh tags by less than this is not seen by them. [m/rad | m/m]
+constexpr double kTagSeesJoint = 0.2;
+//! Step of the fit's numerical derivative. [rad | m]
+constexpr double kTagFitStep = 1e-4;
+constexpr int kTagFitIterations = 10;
+//! Fits kept for the velocity at least this far apart. [µs]
+constexpr std::int64_t kTagRingSpacing_us = 50'000;
+
+using TagResidual = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 3 * static_cast<int>(planning::kMaxMachineTags), 1>;
+using TagJacobian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 3 * static_cast<int>(planning::kMaxMachineTags),
+                                  static_cast<int>(kMaxJoints)>;
+using JointMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, static_cast<int>(kMaxJoints),
+                                  static_cast<int>(kMaxJoints)>;
+
+}  // namespace
+
+const SiteTagPose& site_fit_tags(SitePeerModel& p, const hal::SensorSnapshot& snapshot, const planning::JointVector& seed_q,
+                                 std::int64_t seed_us, std::int64_t now_us, const SiteMemberConfig& config) noexcept {
+  SiteTagPose& out = p.tag_pose;
+  SiteTagTrack& track = p.tag_track;
+  out.valid = false;
+  out.tags_used = 0;
+  if (p.num_tags == 0) return out;
+  const int n = p.model->dof();
+  // Every tag's latest fix, when fresh.
+  std::array<Eigen::Vector3d, planning::kMaxMachineTags> fix_m{};
+  std::array<int, planning::kMaxMachineTags> tag_of{};
+  int used = 0;
+  double sigma_m = 0.0;
+  std::int64_t newest_us = std::numeric_limits<std::int64_t>::min();
+  std::int64_t oldest_us = std::numeric_limits<std::int64_t>::max();
+  for (int k = 0; k < p.num_tags; ++k) {
+    const hal::TagReading* r = snapshot.find_tag(p.tag_ids[static_cast<std::size_t>(k)]);
+    if (r == nullptr || !r->valid || now_us - r->t_us > config.tag_max_age_us) continue;
+    const auto u = static_cast<std::size_t>(used++);
+    fix_m[u] = Eigen::Vector3d(r->position_m[0], r->position_m[1], r->position_m[2]);
+    tag_of[u] = k;
+    sigma_m = std::max(sigma_m, r->sigma_m);
+    newest_us = std::max(newest_us, r->t_us);
+    oldest_us = std::min(oldest_us, r->t_us);
+  }
+  out.tags_used = used;
+  if (used == 0) return out;
+  const auto last = (track.head + track.fits + SiteTagTrack::kHistory - 1) % SiteTagTrack::kHistory;
+  if (!track.seeded) {
+    track.fits = 0;
+    for (int j = 0; j < n; ++j) track.seen_us[static_cast<std::size_t>(j)] = seed_us;
+  }
+  planning::JointVector q = track.seeded && track.fits > 0 ? out.q : seed_q;
+  const auto residual = [&](const planning::JointVector& at, TagResidual& r) noexcept {
+    p.model->forward_kinematics(at, p.tag_kinematics);
+    for (int i = 0; i < used; ++i) {
+      const auto k = static_cast<std::size_t>(tag_of[static_cast<std::size_t>(i)]);
+      r.segment<3>(3 * i) = fix_m[static_cast<std::size_t>(i)] - planning::tag_position(p.tag_kinematics, p.tag_mounts[k], p.tag_local_m[k]);
+    }
+  };
+  TagResidual r(3 * used);
+  TagResidual rh(3 * used);
+  TagJacobian jac(3 * used, n);
+  JointMatrix a(n, n);
+  planning::JointVector b(n);
+  planning::JointVector qh(n);
+  std::array<bool, kMaxJoints> sees{};
+  for (int it = 0; it < kTagFitIterations; ++it) {
+    residual(q, r);
+    for (int j = 0; j < n; ++j) {
+      qh = q;
+      qh[j] += kTagFitStep;
+      residual(qh, rh);
+      // The model's tag moves by -(rh - r): d(model)/dq.
+      jac.col(j) = (r - rh) / kTagFitStep;
+      if (it == 0) sees[static_cast<std::size_t>(j)] = jac.col(j).norm() >= kTagSeesJoint;
+    }
+    // Normal equations over the joints the tags see; the others keep their value.
+    for (int j = 0; j < n; ++j) {
+      const bool sj = sees[static_cast<std::size_t>(j)];
+      b[j] = sj ? jac.col(j).dot(r) : 0.0;
+      for (int k = 0; k < n; ++k) a(j, k) = sj && sees[static_cast<std::size_t>(k)] ? jac.col(j).dot(jac.col(k)) : 0.0;
+      a(j, j) += sj ? 1e-9 : 1.0;
+    }
+    const planning::JointVector dq = a.ldlt().solve(b);
+    double step = 0.0;
+    for (int j = 0; j < n; ++j) {
+      const planning::JointSpec& spec = p.model->joints()[static_cast<std::size_t>(j)];
+      if (!std::isfinite(dq[j])) return out;
+      q[j] += dq[j];
+      if (!spec.continuous) q[j] = std::clamp(q[j], spec.position_min, spec.position_max);
+      step = std::max(step, std::abs(dq[j]));
+    }
+    if (step < 1e-7) break;
+  }
+  residual(q, r);
+  double worst_m = 0.0;
+  for (int i = 0; i < used; ++i) worst_m = std::max(worst_m, r.segment<3>(3 * i).norm());
+  ++track.fits_done;
+  const double gate_m = 3.0 * sigma_m + config.tag_residual_gate_m;
+  bool plausible = worst_m <= gate_m;
+  if (plausible && track.seeded && track.fits > 0) {
+    // Not farther from the last fit than the machine can move meanwhile.
+    double moved_m = 0.0;
+    for (int j = 0; j < n; ++j) moved_m += p.model->displacement_bound(j) * std::abs(q[j] - track.fit_q[last][j]);
+    const double dt_s = static_cast<double>(std::max<std::int64_t>(newest_us - track.fit_us[last], 0)) * 1e-6;
+    plausible = moved_m <= p.max_point_speed_m_s * dt_s + 2.0 * gate_m;
+  }
+  if (!plausible) {
+    ++track.fits_implausible;
+    track.seeded = false;
+    track.fits = 0;
+    return out;
+  }
+  track.seeded = true;
+  for (int j = 0; j < n; ++j) {
+    if (sees[static_cast<std::size_t>(j)]) track.seen_us[static_cast<std::size_t>(j)] = oldest_us;
+  }
+  // The ring keeps a fit every kTagRingSpacing_us: the velocity is their least-squares slope over
+  // the window, which averages the fixes' noise down.
+  if (track.fits == 0 || newest_us - track.fit_us[last] >= kTagRingSpacing_us) {
+    const auto at = (track.head + track.fits) % SiteTagTrack::kHistory;
+    track.fit_us[at] = newest_us;
+    track.fit_q[at] = q;
+    if (track.fits < SiteTagTrack::kHistory) {
+      ++track.fits;
+    } else {
+      track.head = (track.head + 1) % SiteTagTrack::kHistory;
+    }
+  }
+  out.t_us = newest_us;
+  out.q = q;
+  out.residual_m = worst_m;
+  int count = 0;
+  double t_mean_s = 0.0;
+  for (std::size_t i = 0; i < track.fits; ++i) {
+    const std::size_t at = (track.head + i) % SiteTagTrack::kHistory;
+    if (newest_us - track.fit_us[at] > config.tag_velocity_window_us) continue;
+    t_mean_s += static_cast<double>(track.fit_us[at] - newest_us) * 1e-6;
+    ++count;
+  }
+  if (count < 3) return out;
+  t_mean_s /= count;
+  double stt = 0.0;
+  double span_s = 0.0;
+  for (int j = 0; j < n; ++j) out.v[j] = 0.0;
+  for (std::size_t i = 0; i < track.fits; ++i) {
+    const std::size_t at = (track.head + i) % SiteTagTrack::kHistory;
+    if (newest_us - track.fit_us[at] > config.tag_velocity_window_us) continue;
+    const double dt = static_cast<double>(track.fit_us[at] - newest_us) * 1e-6 - t_mean_s;
+    span_s = std::max(span_s, static_cast<double>(newest_us - track.fit_us[at]) * 1e-6);
+    stt += dt * dt;
+    for (int j = 0; j < n; ++j) out.v[j] += dt * track.fit_q[at][j];
+  }
+  // Not yet half a window of fits: no velocity to carry it at.
+  if (span_s < 0.5e-6 * static_cast<double>(config.tag_velocity_window_us) || !(stt > 0.0)) return out;
+  for (int j = 0; j < n; ++j) out.v[j] /= stt;
+  const double latency_s = static_cast<double>(config.tag_latency_us) * 1e-6;
+  double unseen_m = 0.0;
+  for (int j = 0; j < n; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    if (sees[k]) continue;
+    // Unseen since seen_us: anywhere its speed could take it, or anywhere in its range.
+    const planning::JointSpec& spec = p.model->joints()[k];
+    const double unseen_s = track.seen_us[k] == std::numeric_limits<std::int64_t>::min()
+                                ? std::numeric_limits<double>::infinity()
+                                : static_cast<double>(now_us - track.seen_us[k]) * 1e-6 + latency_s;
+    double travel = spec.max_velocity * unseen_s;
+    if (!spec.continuous) travel = std::min(travel, spec.position_max - spec.position_min);
+    unseen_m += p.model->displacement_bound(j) * std::min(travel, 1e6);
+    out.v[j] = 0.0;
+  }
+  const double noise_m = worst_m + 3.0 * sigma_m;
+  out.grow_m = noise_m + unseen_m + p.max_point_speed_m_s * (static_cast<double>(now_us - oldest_us) * 1e-6 + latency_s);
+  // Three sigmas of the slope, a fit's error taken as a third of the noise bound.
+  out.speed_error_m_s = noise_m / std::sqrt(stt);
+  // The slope is the velocity at the window's mean time.
+  out.velocity_lag_s = -t_mean_s + latency_s;
+  out.valid = true;
+  return out;
 }
 
 void site_plan_at(const site_plan_t& plan, double t_s, planning::JointVector& q) noexcept {

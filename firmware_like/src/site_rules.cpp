@@ -38,7 +38,7 @@ SiteRoster make_site_roster(const planning::Site& site) {
       e.revolute[j] = spec.type == planning::JointType::Revolute;
       e.continuous[j] = spec.continuous;
     }
-    e.has_uwb_tags = !m.uwb_tag_ids.empty();
+    e.has_uwb_tags = !m.uwb_tags.empty();
     // The largest over its lifts: a lift's load and rigging can move the farthest body point
     // outward, and with it the bound.
     double speed = 0.0;
@@ -92,8 +92,15 @@ SiteDecision decide_site(const SiteRoster& roster, std::int32_t my_id, std::span
     const double worst_age_s = static_cast<double>(std::max<std::int64_t>(d.age_us, 0) + config.max_skew_us) * 1e-6;
     if (!live) {
       d.link = SiteLink::Stale;
-      if (other.has_uwb_tags) {
+      if (other.has_uwb_tags && in.tags_posed) {
         d.prediction = SitePrediction::UwbTags;
+        // Seen by the site's RTLS it is any dynamic obstacle: it may not hear me, so I stop as
+        // the lower priority does, a horizon early.
+        d.motion = mutual_stop(in.meet_in_s, true, config.horizon_s);
+        if (d.motion > out.motion) {
+          out.motion = d.motion;
+          out.motion_for_id = d.machine_id;
+        }
       } else if (in.state != nullptr) {
         d.prediction = SitePrediction::FrozenPose;
         d.grow_m = other.max_point_speed_m_s * worst_age_s;

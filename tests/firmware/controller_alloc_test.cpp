@@ -130,3 +130,33 @@ TEST_CASE("a site member's cycle does not allocate: the rules, the meet scan, th
   REQUIRE(rig.member(1).controller->stats().site_stop_cycles > 0);
   REQUIRE(rig.member(1).controller->stats().replans >= 1);
 }
+
+TEST_CASE("a site member posing a stale machine from its UWB tags does not allocate: the fit, its scan, its worlds", "[firmware][sim][alloc][site]") {
+  // The tower crane of the crossing lifts with the site's tags on it, its messages stopped 1 s in
+  // while it lifts on: the TMS870 fits it from its tags every cycle and poses it from them.
+  planning::Site site = planning::io::load_site(std::string(MGC_SOURCE_DIR) + "/scenarios/sites/crossing-cranes.yaml");
+  const auto tag = [](int id, const char* body, Eigen::Vector3d at) {
+    planning::MachineTagSpec t;
+    t.id = id;
+    t.body = body;
+    t.position_m = at;
+    return t;
+  };
+  site.machines[1].uwb_tags = {tag(1, "jib", {0, 0, 29.85}), tag(2, "trolley", {0, 0, 0}), tag(3, "counter_jib", {0, 0, 10}),
+                               tag(4, "hook", {0, 0, 0})};
+  sim::SiteRigConfig config;
+  config.lift_start_s = {0.0, 0.0};
+  config.uwb = sim::UwbParams{};
+  config.allocation_count = [] { return test::allocation_count(); };
+  sim::SiteRig rig(site, config, "site-tags-alloc");
+  rig.run_until(1.0);
+  rig.mute(2);
+  rig.run_until(200.0, true);
+  const sim::SiteRigMember& lower = rig.member(1);
+  const firmware::ControllerStats& st = lower.controller->stats();
+  CAPTURE(st.goals_reached, st.site_tag_cycles, st.site_stop_cycles);
+  REQUIRE(st.goals_reached == 1);
+  REQUIRE(st.site_tag_cycles > 5'000);
+  REQUIRE(st.site_stop_cycles > 0);
+  CHECK(lower.step_allocations == 0);
+}

@@ -8,12 +8,14 @@
 #include "mgc/firmware/site_auth.hpp"
 #include "mgc/planning/io/site_loader.hpp"
 #include "mgc/sim/site_rig.hpp"
+#include "mgc/planning/machine_model.hpp"
 
 #include <mgc/alert_t.hpp>
 #include <mgc/site_state_t.hpp>
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -51,12 +53,55 @@ std::string summary(sim::SiteRig& rig) {
 bool has_site_alert(const firmware::GuidanceSnapshot& g, std::int8_t source, std::int32_t machine_id, std::int8_t severity = 0) {
   for (int a = 0; a < g.num_alerts; ++a) {
     const firmware::SnapshotAlert& alert = g.alerts[static_cast<std::size_t>(a)];
-    if (alert.source == source && alert.index == machine_id && alert.value_unit == mgc::alert_t::UNIT_SECOND &&
-        (severity == 0 || alert.severity == severity)) {
+    // A stale machine's alert gives the prediction that poses it (unit none); the rules' the meet time.
+    const std::int8_t unit = source == mgc::alert_t::SOURCE_SENSING ? mgc::alert_t::UNIT_NONE : mgc::alert_t::UNIT_SECOND;
+    if (alert.source == source && alert.index == machine_id && alert.value_unit == unit && (severity == 0 || alert.severity == severity)) {
       return true;
     }
   }
   return false;
+}
+
+//! The stale machine's alert on the snapshot gives the prediction that poses machine_id.
+bool stale_alert_says(const firmware::GuidanceSnapshot& g, std::int32_t machine_id, firmware::SitePrediction prediction) {
+  for (int a = 0; a < g.num_alerts; ++a) {
+    const firmware::SnapshotAlert& alert = g.alerts[static_cast<std::size_t>(a)];
+    if (alert.source == mgc::alert_t::SOURCE_SENSING && alert.index == machine_id && alert.value_unit == mgc::alert_t::UNIT_NONE &&
+        alert.value == static_cast<double>(prediction)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+//! crossing_site() with the site's RTLS on the tower crane: jib tip, trolley, counterweight, hook.
+planning::Site tagged_crossing_site() {
+  planning::Site site = crossing_site();
+  const auto tag = [](int id, const char* body, Eigen::Vector3d at) {
+    planning::MachineTagSpec t;
+    t.id = id;
+    t.body = body;
+    t.position_m = at;
+    return t;
+  };
+  site.machines[1].uwb_tags = {tag(1, "jib", {0, 0, 29.85}), tag(2, "trolley", {0, 0, 0}), tag(3, "counter_jib", {0, 0, 10}),
+                               tag(4, "hook", {0, 0, 0})};
+  return site;
+}
+
+//! Largest distance between a moving body's centre posed at q and at the truth's joints. [m]
+double posed_off_m(const planning::MachineModel& model, const planning::JointVector& q, const sim::TrueState& truth) {
+  planning::JointVector t(model.dof());
+  for (int j = 0; j < model.dof(); ++j) t[j] = truth.position[static_cast<std::size_t>(j)];
+  planning::Kinematics a;
+  planning::Kinematics b;
+  model.forward_kinematics(q, a);
+  model.forward_kinematics(t, b);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < model.bodies().size(); ++k) {
+    worst = std::max(worst, (a.bodies[k].world_from_body.translation() - b.bodies[k].world_from_body.translation()).norm());
+  }
+  return worst;
 }
 
 }  // namespace
@@ -148,6 +193,87 @@ TEST_CASE("a member whose messages stop is stale: its frozen pose grown by its s
   CHECK(has_site_alert(lower.controller->snapshot(), mgc::alert_t::SOURCE_SENSING, kHigher, mgc::alert_t::SEVERITY_STOP));
   CHECK(rig.pairs().front().samples_in_contact == 0);
   CHECK(rig.least_between_m() > 0.5);
+}
+
+TEST_CASE("a stale member seen by the site's UWB tags is posed from them: tracked, no needless stop, and without tags frozen and grown", "[site][sim][uwb]") {
+  // The tower crane's messages stop 1 s into both lifts while it lifts on under its own plan; the
+  // site's RTLS sees its tags on the TMS870's bus, with the single-machine scenarios' UWB noise,
+  // rate, latency and dropouts.
+  const double mute_s = 1.0;
+  SECTION("with tags: tracked within 1.5 m, both lifts complete, no contact") {
+    sim::SiteRigConfig config;
+    config.lift_start_s = {0.0, 0.0};
+    config.uwb = sim::UwbParams{};
+    sim::SiteRig rig(tagged_crossing_site(), config, "stale-uwb");
+    const auto model = planning::build_model(planning::lift_scenario(tagged_crossing_site(), 1, 0));
+    rig.run_until(mute_s);
+    rig.mute(kHigher);
+    sim::SiteRigMember& lower = rig.member(kLower);
+    sim::SiteRigMember& higher = rig.member(kHigher);
+    rig.run_until(mute_s + 0.3);
+    {
+      const firmware::SitePeerDecision& d = lower.controller->site_decision().peers[1];
+      CHECK(d.link == firmware::SiteLink::Stale);
+      CHECK(d.prediction == firmware::SitePrediction::UwbTags);
+      CHECK(stale_alert_says(lower.controller->snapshot(), kHigher, firmware::SitePrediction::UwbTags));
+    }
+    // Every cycle while it is stale and posed from its tags, its posed bodies against the true ones.
+    double worst_off_m = 0.0;
+    double worst_grow_m = 0.0;
+    double least_margin_m = 1e9;  // grown pose less how far off it is: never negative
+    std::uint64_t posed = 0;
+    while (rig.sim_s() < kLimitS && !(rig.lift_done(lower) && rig.lift_done(higher))) {
+      rig.run_until(rig.sim_s() + 0.01);
+      const firmware::SiteTagPose* pose = lower.controller->site_tag_pose(kHigher);
+      REQUIRE(pose != nullptr);
+      if (lower.controller->site_decision().peers[1].prediction != firmware::SitePrediction::UwbTags) continue;
+      ++posed;
+      // The pose is the fit at its newest fix, carried at its velocity to now, as the scan carries it.
+      planning::JointVector q = pose->q;
+      const double age_s = static_cast<double>(lower.rig->t_us - pose->t_us) * 1e-6;
+      for (int j = 0; j < model->dof(); ++j) q[j] += pose->v[j] * age_s;
+      const double off_m = posed_off_m(*model, q, higher.rig->sim->truth());
+      worst_off_m = std::max(worst_off_m, off_m);
+      worst_grow_m = std::max(worst_grow_m, pose->grow_m);
+      least_margin_m = std::min(least_margin_m, pose->grow_m + pose->speed_error_m_s * age_s - off_m);
+    }
+    INFO(summary(rig));
+    CAPTURE(worst_off_m, worst_grow_m, least_margin_m, posed);
+    const firmware::ControllerStats& st = lower.controller->stats();
+    CHECK(posed > 1000);
+    CHECK(st.site_tag_cycles >= posed);
+    // Frozen and grown only before the tower crane's first state (never heard, no velocity yet).
+    CHECK(st.site_frozen_cycles < 10);
+    CHECK(worst_off_m < 1.5);
+    CHECK(least_margin_m >= 0.0);
+    // Both lifts done, the TMS870's within the time it takes with the tower crane heard.
+    CHECK(rig.lift_done(lower));
+    CHECK(rig.lift_done(higher));
+    CHECK(rig.sim_s() < 150.0);
+    CHECK(rig.pairs().front().samples_in_contact == 0);
+    CHECK(rig.least_between_m() > 0.5);
+    CHECK(lower.controller->site_decision().peers[1].link == firmware::SiteLink::Stale);
+  }
+  SECTION("without tags: frozen and grown as before, the TMS870 stopped for good") {
+    sim::SiteRigConfig config;
+    config.lift_start_s = {0.0, 0.0};
+    config.uwb = sim::UwbParams{};
+    sim::SiteRig rig(crossing_site(), config, "stale-frozen");
+    rig.run_until(mute_s);
+    rig.mute(kHigher);
+    rig.run_until(60.0);
+    INFO(summary(rig));
+    sim::SiteRigMember& lower = rig.member(kLower);
+    CHECK(lower.controller->site_tag_pose(kHigher) == nullptr);
+    CHECK(lower.controller->site_decision().peers[1].prediction == firmware::SitePrediction::FrozenPose);
+    CHECK(stale_alert_says(lower.controller->snapshot(), kHigher, firmware::SitePrediction::FrozenPose));
+    CHECK(lower.controller->stats().site_tag_cycles == 0);
+    CHECK(lower.controller->stats().site_frozen_cycles > 5000);
+    CHECK(lower.controller->stats().site_stop_cycles > 0);
+    CHECK(lower.controller->stats().goals_reached == 0);
+    CHECK(rig.lift_done(rig.member(kHigher)));
+    CHECK(rig.pairs().front().samples_in_contact == 0);
+  }
 }
 
 TEST_CASE("forged, replayed and malformed site messages are refused, counted and never acted on", "[site][sim]") {

@@ -81,12 +81,17 @@ TEST_CASE("a stale machine falls back to its UWB tags, else its frozen pose grow
   SiteRoster roster = mgc::test::two_machine_roster();
   const SiteRulesConfig config;
   std::array<SitePeerInput, 2> peers{};
-  // Never heard, with tags: tags.
+  // Never heard, with tags that posed it: tags.
+  peers[1].tags_posed = true;
   SiteDecision d = decide_site(roster, 1, peers, kNow0_us, config);
   CHECK(d.peers[1].link == SiteLink::Stale);
   CHECK(d.peers[1].prediction == SitePrediction::UwbTags);
   CHECK(d.peers[1].age_us == -1);
-  // Never heard, no tags: everything it can reach.
+  // Tags on it, but no fresh, plausible fit this cycle: as without tags.
+  peers[1].tags_posed = false;
+  CHECK(decide_site(roster, 1, peers, kNow0_us, config).peers[1].prediction == SitePrediction::WholeReach);
+  peers[1].tags_posed = true;
+  // Never heard, no tags: everything it can reach, whatever the caller says of tags.
   roster.machines[1].has_uwb_tags = false;
   d = decide_site(roster, 1, peers, kNow0_us, config);
   CHECK(d.peers[1].prediction == SitePrediction::WholeReach);
@@ -101,9 +106,36 @@ TEST_CASE("a stale machine falls back to its UWB tags, else its frozen pose grow
   CHECK(d.peers[1].grow_m == Approx(7.0 * 1.1));
   d = decide_site(roster, 1, peers, kNow0_us + 1'000'000, config);
   CHECK(d.peers[1].grow_m == Approx(7.0 * 2.1));
-  // A stale machine's meet_in_s is not the rules' to judge: the stop check has it as an obstacle.
+  // A frozen machine's meet_in_s is not the rules' to judge: the stop check has it as an obstacle.
   peers[1].meet_in_s = 0.0;
   CHECK(decide_site(roster, 1, peers, kNow0_us, config).motion == SiteMotion::Proceed);
+}
+
+TEST_CASE("a machine posed from its tags stops me with the lower priority's lead, whatever the priorities", "[unit]") {
+  SiteRoster roster = mgc::test::two_machine_roster();
+  const SiteRulesConfig config;
+  const site_state_t state = tower_state(1);
+  std::array<SitePeerInput, 2> peers{};
+  peers[1].state = &state;
+  peers[1].state_received_us = kNow0_us - 1'000'000;
+  peers[1].tags_posed = true;
+  // Machine 2 (the tower crane, priority 1) seen by machine 1 (priority 2), and the reverse roles:
+  // machine 1 given the higher priority. The lead is 2H = 1.0 s either way.
+  for (const bool swap : {false, true}) {
+    if (swap) std::swap(roster.machines[0].priority, roster.machines[1].priority);
+    peers[1].meet_in_s = 1.0;
+    SiteDecision d = decide_site(roster, 1, peers, kNow0_us, config);
+    CHECK(d.peers[1].prediction == SitePrediction::UwbTags);
+    CHECK(d.peers[1].role == SiteRole::None);
+    CHECK(d.motion == SiteMotion::Stop);
+    CHECK(d.motion_for_id == 2);
+    peers[1].meet_in_s = 1.01;
+    CHECK(decide_site(roster, 1, peers, kNow0_us, config).motion == SiteMotion::SlowDown);
+    peers[1].meet_in_s = 1.51;
+    CHECK(decide_site(roster, 1, peers, kNow0_us, config).motion == SiteMotion::Proceed);
+    peers[1].meet_in_s = std::numeric_limits<double>::quiet_NaN();
+    CHECK(decide_site(roster, 1, peers, kNow0_us, config).motion == SiteMotion::Stop);
+  }
 }
 
 TEST_CASE("priority: a higher-priority machine is planned around, a lower one's envelope is checked", "[unit]") {

@@ -215,6 +215,8 @@ struct ControllerStats {
   int site_replans = 0;                    //!< safety stops the site asked for to re-plan round a higher-priority machine
   int site_stale_alerts = 0;               //!< times a machine went stale or was never heard (each rise once)
   int site_plans_published = 0;            //!< site_plan_t contents produced
+  std::uint64_t site_tag_cycles = 0;       //!< cycles in which a stale machine was posed from its UWB tags
+  std::uint64_t site_frozen_cycles = 0;    //!< cycles in which a stale machine was posed frozen and grown
   //! Least gap between my stopping envelope and another machine's, stop margin not taken off, as
   //! the scan measured it at its first step (now). [m]
   double site_min_gap_m = 1e9;
@@ -250,6 +252,9 @@ class Controller {
   //! Per roster entry, the time until my stopping envelope and that machine's would meet, as last
   //! scanned (+inf: not within the scan). [s]
   [[nodiscard]] double site_meet_in_s(std::size_t roster_index) const noexcept { return site_meet_s_[roster_index]; }
+  //! What the site's UWB tags on machine_id give of it this cycle (valid: it may pose it); null for
+  //! a machine of no tags, myself or one not on the site.
+  [[nodiscard]] const SiteTagPose* site_tag_pose(std::int32_t machine_id) const noexcept;
 
   //! The guidance snapshot of the last step() (timing left for the harness to fill).
   [[nodiscard]] const GuidanceSnapshot& snapshot() const noexcept { return snap_; }
@@ -317,7 +322,7 @@ class Controller {
   ControllerOutput step_impl(const hal::SensorSnapshot& s, std::int64_t dt_us, const ControllerCommands& commands,
                              bool watchdog_tripped, const SiteInputs* site) noexcept;
   //! The site rules for this cycle: decision, speed factor, safety stop, peers posed.
-  void site_cycle(const SiteInputs& in) noexcept;
+  void site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) noexcept;
   //! Distance from me at my_q to peer p posed at peer_q in its meet world, each body grown by grow_m,
   //! when it is below bound_m (clearance()'s); when nothing is nearer, a lower bound of it at least
   //! bound_m, from bounding boxes alone. me, if given, is my kinematics at my_q: the bodies' world

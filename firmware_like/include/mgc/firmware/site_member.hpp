@@ -11,7 +11,9 @@
 #include <vector>
 
 #include "mgc/firmware/site_rules.hpp"
+#include "mgc/hal/hal.hpp"
 #include "mgc/planning/collision_world.hpp"
+#include "mgc/planning/machine_tags.hpp"
 #include "mgc/planning/machine_model.hpp"
 #include "mgc/planning/scenario.hpp"
 #include "mgc/planning/site.hpp"
@@ -63,6 +65,17 @@ struct SiteMemberConfig {
   int plan_copies = 24;
   //! Step of the scan that finds when two stopping envelopes would meet (meet_in_s). [s]
   double scan_step_s = 0.25;
+  //! The site's RTLS (docs/site.md, "Staleness"): a tag fix older than this (its receive time) is
+  //! not used to pose a stale machine. Three 10 Hz periods. [µs]
+  std::int64_t tag_max_age_us = 300'000;
+  //! From a tag's measurement to its fix's receive time at most (the gateway's latency). [µs]
+  std::int64_t tag_latency_us = 100'000;
+  //! A fit whose largest tag residual exceeds 3 sigma of the fixes plus this is implausible: a
+  //! tag moved on the machine, a wrong fix, a swinging hook beyond what posing can carry. [m]
+  double tag_residual_gate_m = 1.0;
+  //! The velocity a machine posed from its tags is carried at: the slope of its fits over this
+  //! window (one kept every 50 ms). [µs]
+  std::int64_t tag_velocity_window_us = 800'000;
   //! Speed factor while the mutual-stop rule asks to slow down. [-]
   double slow_down_scale = 0.5;
   //! A lower-priority machine that a higher one keeps stopped this long, on a path already planned
@@ -85,6 +98,35 @@ struct SiteMemberConfig {
 //! dynamic obstacles, which come first. Start-up only.
 [[nodiscard]] planning::Scenario site_stop_check_scenario(planning::Scenario member, std::size_t own_dynamic);
 
+//! A machine posed from the site's UWB tags on it (SitePeerModel): the fitted joints, how much the
+//! pose may be off, and the velocity from the fits. [rad | m, m, rad/s | m/s]
+struct SiteTagPose {
+  bool valid = false;             //!< fresh fixes, a plausible fit, a velocity: it may pose the machine
+  std::int64_t t_us = 0;          //!< the newest fix used (receive time) [µs]
+  planning::JointVector q;        //!< [rad | m]
+  planning::JointVector v;        //!< from the fits over the velocity window [rad/s | m/s]
+  double grow_m = 0.0;            //!< noise, residual, latency and the joints no tag sees [m]
+  double residual_m = 0.0;        //!< largest tag residual of the fit [m]
+  //! How fast a body point may move unlike v says (the fixes' noise over the window), and how old
+  //! v is beyond t_us (half the window): the caller grows its prediction by both. [m/s, s]
+  double speed_error_m_s = 0.0;
+  double velocity_lag_s = 0.0;
+  int tags_used = 0;              //!< [-]
+};
+
+//! The fit's memory for one machine: the last fits, the time each joint was last seen. Fixed size.
+struct SiteTagTrack {
+  static constexpr std::size_t kHistory = 32;
+  std::array<std::int64_t, kHistory> fit_us{};
+  std::array<planning::JointVector, kHistory> fit_q{};
+  std::size_t fits = 0;  //!< in the ring, newest at (head + fits - 1) % kHistory
+  std::size_t head = 0;
+  std::array<std::int64_t, kMaxJoints> seen_us{};  //!< when a tag last saw each joint [µs]
+  bool seeded = false;
+  std::uint64_t fits_done = 0;         //!< [-]
+  std::uint64_t fits_implausible = 0;  //!< by residual or by a jump beyond the speed bound [-]
+};
+
 //! One other machine's model and the worlds it is measured in. Start-up builds it; the loop poses it.
 struct SitePeerModel {
   int roster_index = -1;
@@ -100,6 +142,16 @@ struct SitePeerModel {
   int copies = 0;        //!< of its moving bodies in the planning worlds: plan_copies when higher, else 1
   planning::Kinematics kinematics{};
   planning::JointVector q;  //!< scratch [rad | m]
+  // The site's UWB tags on it (the site file's uwb_tags), and the pose they give while it is stale.
+  int num_tags = 0;
+  std::array<std::uint8_t, planning::kMaxMachineTags> tag_ids{};
+  std::array<planning::TagMount, planning::kMaxMachineTags> tag_mounts{};
+  std::array<Eigen::Vector3d, planning::kMaxMachineTags> tag_local_m{};
+  SiteTagTrack tag_track{};
+  SiteTagPose tag_pose{};
+  //! The tag pose as a state (positions, velocities, stop travel), for the meet scan and the worlds.
+  site_state_t tag_state{};
+  planning::Kinematics tag_kinematics{};  //!< scratch
   //! The meet world's nearest pair of the last query, measured first in the next: it lowers the
   //! bound early and changes only the cost.
   planning::CollisionWorld::NearestBelow nearest{};
@@ -125,6 +177,18 @@ struct SitePeerModel {
 //! Plan time of copy c (1..copies) of a higher-priority machine's plan of w waypoints: evenly
 //! over the whole plan, the last at its end. RT-safe.
 [[nodiscard]] double site_plan_copy_time_s(const site_plan_t& plan, int w, int c, int copies) noexcept;
+
+//! Poses machine p from the site's UWB fixes of its tags in snapshot (docs/site.md, "Staleness"):
+//! a Gauss-Newton fit of its joints through its model, from the last fit (or seed_q, its last
+//! verified pose or its lift's start) over the fixes received within config.tag_max_age_us. A joint
+//! that no fresh tag sees keeps the value it had and grows the pose by its displacement bound times
+//! its maximum speed over the time since a tag last saw it. Implausible, and p.tag_pose invalid:
+//! no fresh fix, a residual beyond the gate, or a fit farther from the last one than the speed
+//! bound allows. Returns p.tag_pose. RT-safe (fixed-size Eigen, no allocation).
+//! seed_us: when seed_q held (its state's receive time less the skew; never heard: INT64_MIN, every
+//! joint then unknown until a tag sees it).
+const SiteTagPose& site_fit_tags(SitePeerModel& p, const hal::SensorSnapshot& snapshot, const planning::JointVector& seed_q,
+                                 std::int64_t seed_us, std::int64_t now_us, const SiteMemberConfig& config) noexcept;
 
 //! Position of a plan at plan time t_s, linear between its timed waypoints, held at its ends. RT-safe.
 void site_plan_at(const site_plan_t& plan, double t_s, planning::JointVector& q) noexcept;

@@ -83,6 +83,9 @@ struct SitePeerInput {
   //! from the caller's sweep over its look-ahead; +inf when they do not meet within it. A NaN
   //! (no sweep gives one) counts as meeting now: the rules never guess that a machine is clear. [s]
   double meet_in_s = std::numeric_limits<double>::infinity();
+  //! The caller posed this machine from the site's UWB tags on it this cycle: fresh fixes and a
+  //! plausible fit (site_fit_tags()). Read only while it is stale. [-]
+  bool tags_posed = false;
 };
 
 enum class SiteLink : std::uint8_t {
@@ -103,7 +106,7 @@ enum class SitePrediction : std::uint8_t {
   None,              //!< myself
   Plan,              //!< live, with the verified plan its state names: the plan from its plan_time_s on
   StoppingEnvelope,  //!< live, no such plan: between its position and position + stop_travel, grown by grow_m
-  UwbTags,           //!< stale, and the RTLS sees it: its tags, as any dynamic obstacle
+  UwbTags,           //!< stale, and the RTLS sees it: its pose fitted to its tags' fixes, carried at their velocity
   FrozenPose,        //!< stale, no tags: its last verified pose and stopping envelope, grown by grow_m
   WholeReach,        //!< stale, no tags, never heard: everything it can reach from its base
 };
@@ -141,12 +144,14 @@ struct SiteDecision {
 //!  - Live while now_us - state_received_us <= stale_after_us(), else Stale (never heard: Stale).
 //!  - Live, smaller priority number: PlanAround; larger: CheckEnvelope.
 //!  - Live: prediction Plan when its latest verified plan has the plan_id its state executes (not 0),
-//!    else StoppingEnvelope. Stale: UwbTags if it has tags, else FrozenPose if it was ever heard,
-//!    else WholeReach.
+//!    else StoppingEnvelope. Stale: UwbTags if it has tags and the caller posed it from them
+//!    (tags_posed), else FrozenPose if it was ever heard, else WholeReach.
 //!  - Live, mutual stop: with lead L = horizon_s when I have the higher priority and 2 horizon_s
 //!    when I have the lower, Stop when meet_in_s <= L, SlowDown when meet_in_s <= L + horizon_s.
 //!    Both machines stop whatever their priority; the lower-priority one commands its stop one
-//!    horizon earlier. A stale machine is left to the stop check as the obstacle its prediction poses.
+//!    horizon earlier. A stale machine posed from its UWB tags is judged by the same rule with the
+//!    lead of the lower priority, whatever the priorities (it may not hear me); any other stale
+//!    machine is left to the stop check as the obstacle its prediction poses.
 //! RT-safe: no alloc, no lock, no throw.
 [[nodiscard]] SiteDecision decide_site(const SiteRoster& roster, std::int32_t my_id, std::span<const SitePeerInput> peers,
                                        std::int64_t now_us, const SiteRulesConfig& config) noexcept;
