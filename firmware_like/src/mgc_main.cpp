@@ -324,6 +324,11 @@ int main(int argc, char** argv) {
     std::uint64_t cycles_run = 0;
 
     bool goal_requested = false;
+    // A site member with --goal-on-start runs its whole queue of lifts, each leg requested in HOLD
+    // once the previous one's goal was reached (docs/site.md, "Later lifts").
+    std::unique_ptr<firmware::SiteLiftQueue> lift_queue;
+    if (site_member && goal_on_start) lift_queue = std::make_unique<firmware::SiteLiftQueue>(site_member->site, machine_id);
+    bool next_leg = false;
     std::int64_t goal_request_us = -1;
     std::int64_t done_us = -1;
     std::uint64_t stops_seen = 0;
@@ -365,9 +370,17 @@ int main(int argc, char** argv) {
       const std::uint64_t stops = feed.stops_received();
       if (stops != stops_seen) cmd.stop = true;
       stops_seen = stops;
-      if (goal_on_start && !goal_requested && controller.supervisor().state() == guidance::SupervisorState::Hold) {
-        cmd.goal_request = true;
-        goal_requested = true;
+      if (goal_on_start && controller.supervisor().state() == guidance::SupervisorState::Hold) {
+        if (lift_queue) {
+          if ((!goal_requested || next_leg) && lift_queue->goal(cmd.goal, cmd.goal_joints)) {
+            cmd.goal_request = true;
+            goal_requested = true;
+            next_leg = false;
+          }
+        } else if (!goal_requested) {
+          cmd.goal_request = true;
+          goal_requested = true;
+        }
       }
 
       const std::int64_t step_dt_us = timing.index == 0 ? period_us : timing.dt_us;
@@ -412,7 +425,11 @@ int main(int argc, char** argv) {
         if (out.supervisor.reason == R::GoalRequested && goal_request_us < 0) goal_request_us = timing.start_us;
         if (out.supervisor.reason == R::GoalReached) {
           done_us = timing.start_us;
-          if (exit_when_done) finished = true;
+          if (lift_queue && goal_requested) {
+            (void)lift_queue->reached();
+            next_leg = true;
+          }
+          if (exit_when_done && (!lift_queue || lift_queue->done())) finished = true;
         }
         const bool dropped = out.supervisor.reason == R::RetryLimitReached || out.supervisor.reason == R::ReplanFailed ||
                              out.supervisor.reason == R::PlanFailed || out.supervisor.reason == R::PlanTimeout;
@@ -545,13 +562,14 @@ int main(int argc, char** argv) {
     }
     const firmware::ControllerStats& st = controller.stats();
     const firmware::ExecutiveStats& es = executive.stats();
-    const bool completed = st.goals_reached > 0;
+    const bool completed = lift_queue ? lift_queue->done() : st.goals_reached > 0;
     std::printf("mgc: summary: lift %s", completed ? "completed" : "not completed");
     if (completed && goal_request_us >= 0) std::printf(" in %.1f s", static_cast<double>(done_us - goal_request_us) * 1e-6);
     std::printf(", state %s (%s), %d re-plans (%d escapes, %d retreats), %d safety stops, least clearance while moving %.2f m, "
                 "%d alerts, %d commands refused\n",
                 guidance::to_string(controller.supervisor().state()), guidance::to_string(controller.supervisor().reason()),
                 st.replans, st.escapes, st.retreats, st.safety_stops, st.min_clearance_m, alerts_raised, st.commands_rejected);
+    if (lift_queue) std::printf("mgc: site lifts: %zu of %zu done\n", lift_queue->lifts_done(), lift_queue->lifts());
     if (st.approach_warnings > 0) {
       std::printf("mgc: approach warnings: %d (a moving obstacle predicted within the stop margin of the machine at rest)\n",
                   st.approach_warnings);

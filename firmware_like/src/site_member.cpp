@@ -351,6 +351,47 @@ const SiteTagPose& site_fit_tags(SitePeerModel& p, const hal::SensorSnapshot& sn
   return out;
 }
 
+SiteLiftQueue::SiteLiftQueue(const planning::Site& site, std::int32_t machine_id) {
+  const planning::SiteMachine* machine = nullptr;
+  for (const planning::SiteMachine& m : site.machines) {
+    if (m.id == machine_id) machine = &m;
+  }
+  if (machine == nullptr) throw std::invalid_argument("site " + site.name + ": machine id " + std::to_string(machine_id) + " is not in the site");
+  lifts_ = machine->lifts.size();
+  for (std::size_t l = 0; l < lifts_; ++l) {
+    const planning::SiteLift& lift = machine->lifts[l];
+    const auto n = static_cast<int>(std::min<Eigen::Index>(lift.goal.size(), static_cast<Eigen::Index>(kMaxJoints)));
+    if (l == 0) {
+      legs_.push_back({{}, 0, 0, true});
+      continue;
+    }
+    const planning::JointVector& before = machine->lifts[l - 1].goal;
+    if (!(before.size() == lift.start.size() && before.isApprox(lift.start, 0.0))) {
+      Leg to_start{{}, n, l, false};
+      for (int j = 0; j < n; ++j) to_start.goal[static_cast<std::size_t>(j)] = lift.start[j];
+      legs_.push_back(to_start);
+    }
+    Leg to_goal{{}, n, l, true};
+    for (int j = 0; j < n; ++j) to_goal.goal[static_cast<std::size_t>(j)] = lift.goal[j];
+    legs_.push_back(to_goal);
+  }
+}
+
+bool SiteLiftQueue::goal(std::array<double, kMaxJoints>& goal, int& goal_joints) const noexcept {
+  if (done()) return false;
+  goal = legs_[leg_].goal;
+  goal_joints = legs_[leg_].joints;
+  return true;
+}
+
+bool SiteLiftQueue::reached() noexcept {
+  if (done()) return false;
+  const bool lift_done = legs_[leg_].ends_lift;
+  if (lift_done) ++lifts_done_;
+  ++leg_;
+  return lift_done;
+}
+
 void site_plan_at(const site_plan_t& plan, double t_s, planning::JointVector& q) noexcept {
   const int n = std::min<int>(plan.num_joints, static_cast<int>(q.size()));
   const int w = std::clamp<int>(plan.num_waypoints, 0, site_plan_t::MAX_WAYPOINTS);

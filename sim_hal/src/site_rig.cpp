@@ -57,6 +57,7 @@ SiteRig::SiteRig(const planning::Site& site, SiteRigConfig config, const std::st
     m.verifier = std::make_unique<firmware::SiteVerifier>(key_, roster, m.machine_id);
     m.truth = std::make_unique<TruthMonitor>(lift);
     m.lift_start_s = i < config_.lift_start_s.size() ? config_.lift_start_s[i] : 0.0;
+    m.lifts = std::make_unique<firmware::SiteLiftQueue>(site_, m.machine_id);
     m.rig->on_cycle = [this, i](const hal::SensorSnapshot& s) { cycle(i, s); };
   }
   for (const SiteRigMember& m : members_) truths_.push_back(&m.rig->sim->truth());
@@ -80,7 +81,7 @@ SiteRigMember& SiteRig::member(std::int32_t machine_id) {
   throw std::invalid_argument("site rig: no machine " + std::to_string(machine_id));
 }
 
-bool SiteRig::lift_done(const SiteRigMember& m) const noexcept { return m.controller->stats().goals_reached > 0; }
+bool SiteRig::lift_done(const SiteRigMember& m) const noexcept { return m.lifts->done(); }
 
 double SiteRig::least_between_m() const noexcept { return referee_.least_m(); }
 
@@ -145,10 +146,11 @@ void SiteRig::cycle(std::size_t i, const hal::SensorSnapshot& s) {
   if (config_.clock_ns) m.last_receive_ns = config_.clock_ns() - receive_from_ns;
   firmware::ControllerCommands commands;
   const double now_s = static_cast<double>(s.t_us - SteppedRig::kSimZeroUs) * 1e-6;
-  if (!m.goal_sent && m.lift_start_s >= 0.0 && now_s >= m.lift_start_s &&
-      m.controller->supervisor().state() == guidance::SupervisorState::Hold) {
+  if ((!m.goal_sent || m.next_leg) && m.lift_start_s >= 0.0 && now_s >= m.lift_start_s &&
+      m.controller->supervisor().state() == guidance::SupervisorState::Hold && m.lifts->goal(commands.goal, commands.goal_joints)) {
     commands.goal_request = true;
     m.goal_sent = true;
+    m.next_leg = false;
   }
   const long before = config_.allocation_count ? config_.allocation_count() : 0;
   const std::int64_t step_from_ns = config_.clock_ns ? config_.clock_ns() : 0;
@@ -159,6 +161,10 @@ void SiteRig::cycle(std::size_t i, const hal::SensorSnapshot& s) {
   if (m.out.start_nodes) (void)m.rig->hal->send_nmt(hal::canopen::NmtCommand::Start, 0);
   m.rig->hal->set_pilot_enabled(m.out.pilot_enable);
   for (int j = 0; j < m.controller->num_joints(); ++j) m.rig->command[static_cast<std::size_t>(j)] = m.out.velocity[static_cast<std::size_t>(j)];
+  if (m.out.supervisor.transitioned && m.out.supervisor.reason == guidance::TransitionReason::GoalReached && m.goal_sent) {
+    (void)m.lifts->reached();
+    m.next_leg = true;
+  }
   if (m.out.supervisor.transitioned) {
     m.log += std::to_string(now_s) + " s " + guidance::to_string(m.out.supervisor.state) + " (" +
              guidance::to_string(m.out.supervisor.reason) + ")\n";
@@ -168,8 +174,8 @@ void SiteRig::cycle(std::size_t i, const hal::SensorSnapshot& s) {
   bool stale_alert = false;
   for (int a = 0; a < g.num_alerts; ++a) {
     const firmware::SnapshotAlert& alert = g.alerts[static_cast<std::size_t>(a)];
-    // The site alert is the only one measured in seconds from the collision or sensing sources
-    // that names a machine id.
+    // The site alert is the only one of the collision or sensing sources that names a machine id
+    // with these units and the horizon as its limit.
     // The rules' (unit s: the meet time) or a stale machine's (unit none: what poses it).
     const bool unit = alert.value_unit == (alert.source == mgc::alert_t::SOURCE_SENSING ? mgc::alert_t::UNIT_NONE : mgc::alert_t::UNIT_SECOND);
     const bool site = unit && alert.index > 0 &&

@@ -276,6 +276,68 @@ TEST_CASE("a stale member seen by the site's UWB tags is posed from them: tracke
   }
 }
 
+TEST_CASE("a lift queue: the first lift's scenario goal, then each later lift's start (unless there already) and goal", "[unit][lifts]") {
+  planning::Site site = crossing_site();
+  planning::SiteLift back = site.machines[0].lifts[0];
+  back.start = site.machines[0].lifts[0].goal;  // starts where the first ends: no leg to its start
+  back.goal = site.machines[0].lifts[0].start;
+  planning::SiteLift away = back;
+  away.start[0] = 0.5;  // starts elsewhere: a leg there first
+  away.goal[0] = -0.5;
+  site.machines[0].lifts.push_back(back);
+  site.machines[0].lifts.push_back(away);
+  firmware::SiteLiftQueue q(site, kLower);
+  std::array<double, mgc::kMaxJoints> goal{};
+  int joints = -1;
+  REQUIRE(q.goal(goal, joints));
+  CHECK(joints == 0);  // the scenario's own goal
+  CHECK(q.reached());
+  REQUIRE(q.goal(goal, joints));
+  CHECK(joints == 4);
+  CHECK(goal[0] == back.goal[0]);
+  CHECK(q.lift() == 1);
+  CHECK(q.reached());
+  REQUIRE(q.goal(goal, joints));
+  CHECK(goal[0] == 0.5);
+  CHECK_FALSE(q.reached());  // only at its start
+  REQUIRE(q.goal(goal, joints));
+  CHECK(goal[0] == -0.5);
+  CHECK(q.lifts_done() == 2);
+  CHECK(q.reached());
+  CHECK(q.done());
+  CHECK(q.lifts_done() == 3);
+  CHECK_FALSE(q.goal(goal, joints));
+  CHECK_THROWS_AS(firmware::SiteLiftQueue(site, 7), std::invalid_argument);
+}
+
+TEST_CASE("a machine with two queued lifts completes both, one after the other", "[site][sim][lifts]") {
+  // The TMS870's first lift north to south, then a second from south-west of there back north: a
+  // leg to the second lift's start, then to its goal. The tower crane stands at its start.
+  planning::Site site = crossing_site();
+  planning::SiteLift second = site.machines[0].lifts[0];
+  second.name = "steel-bundle-back-north";
+  second.start[0] = -60.0 * 3.14159265358979323846 / 180.0;
+  second.goal = site.machines[0].lifts[0].start;
+  site.machines[0].lifts.push_back(second);
+  const firmware::SiteLiftQueue queue(site, kLower);
+  CHECK(queue.lifts() == 2);
+  sim::SiteRigConfig config;
+  config.lift_start_s = {0.0, -1.0};
+  sim::SiteRig rig(site, config, "two-lifts");
+  sim::SiteRigMember& lower = rig.member(kLower);
+  rig.run_until(kLimitS, true);
+  INFO(summary(rig));
+  CHECK(rig.lift_done(lower));
+  CHECK(lower.lifts->lifts_done() == 2);
+  // The first lift's goal, the second's start, the second's goal.
+  CHECK(lower.controller->stats().goals_reached == 3);
+  const sim::TrueState& truth = lower.rig->sim->truth();
+  for (int j = 0; j < 4; ++j) CHECK(truth.position[static_cast<std::size_t>(j)] == Approx(second.goal[j]).margin(0.02));
+  CHECK(rig.member(kHigher).controller->stats().goals_reached == 0);
+  CHECK(rig.pairs().front().samples_in_contact == 0);
+  CHECK(rig.least_between_m() > 0.5);
+}
+
 TEST_CASE("forged, replayed and malformed site messages are refused, counted and never acted on", "[site][sim]") {
   sim::SiteRigConfig config;
   config.lift_start_s = {0.0, -1.0};  // the tower crane stays where it is

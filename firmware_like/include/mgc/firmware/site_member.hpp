@@ -178,6 +178,41 @@ struct SitePeerModel {
 //! over the whole plan, the last at its end. RT-safe.
 [[nodiscard]] double site_plan_copy_time_s(const site_plan_t& plan, int w, int c, int copies) noexcept;
 
+//! A machine's queue of lifts (the site file's `lifts`, docs/site.md "Later lifts"): the goals its
+//! controller is asked for, one leg at a time, each when the previous one's goal was reached. The
+//! first lift is its scenario's (the controller starts at its start; goal_joints 0: the scenario's
+//! goal). Each later lift is a leg to its start, left out when the previous lift's goal is that
+//! start, then a leg to its goal. The machine carries its first lift's load and rigging throughout
+//! (the controller's model and the simulator have no other). Built at start-up; goal() and
+//! reached() allocate nothing.
+class SiteLiftQueue {
+ public:
+  //! Throws std::invalid_argument for a machine id the site does not list.
+  SiteLiftQueue(const planning::Site& site, std::int32_t machine_id);
+
+  [[nodiscard]] bool done() const noexcept { return leg_ >= legs_.size(); }
+  [[nodiscard]] std::size_t lifts() const noexcept { return lifts_; }
+  [[nodiscard]] std::size_t lifts_done() const noexcept { return lifts_done_; }
+  //! The lift the current leg belongs to (lifts() when done). [-]
+  [[nodiscard]] std::size_t lift() const noexcept { return done() ? lifts_ : legs_[leg_].lift; }
+  //! The current leg's goal (goal_joints 0: the scenario's own); false when done.
+  bool goal(std::array<double, kMaxJoints>& goal, int& goal_joints) const noexcept;
+  //! The current leg's goal was reached: on to the next. True when that completed a lift.
+  bool reached() noexcept;
+
+ private:
+  struct Leg {
+    std::array<double, kMaxJoints> goal{};
+    int joints = 0;
+    std::size_t lift = 0;
+    bool ends_lift = false;
+  };
+  std::vector<Leg> legs_;
+  std::size_t leg_ = 0;
+  std::size_t lifts_ = 0;
+  std::size_t lifts_done_ = 0;
+};
+
 //! Poses machine p from the site's UWB fixes of its tags in snapshot (docs/site.md, "Staleness"):
 //! a Gauss-Newton fit of its joints through its model, from the last fit (or seed_q, its last
 //! verified pose or its lift's start) over the fixes received within config.tag_max_age_us. A joint

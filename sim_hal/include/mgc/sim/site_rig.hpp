@@ -47,7 +47,8 @@ struct SiteRigConfig {
   firmware::SiteRulesConfig rules{};
   SiteFaults faults{};
   //! Per machine in site order, when its first lift's goal is requested (simulation time); a
-  //! negative time never. Missing entries: 0. [s]
+  //! negative time never. Each later lift of its queue follows when the previous one is done.
+  //! Missing entries: 0. [s]
   std::vector<double> lift_start_s;
   //! Every machine's UWB gateway (the site's tags on the other machines): quiet by default, like
   //! the rest of the rig's sensors; UwbParams{} is the single-machine scenarios' noise model. [-]
@@ -73,7 +74,10 @@ struct SiteRigMember {
   firmware::SiteInputs inputs{};
   firmware::ControllerOutput out{};
   double lift_start_s = 0.0;
+  //! Its queue of lifts, run one after another from lift_start_s on.
+  std::unique_ptr<firmware::SiteLiftQueue> lifts;
   bool goal_sent = false;
+  bool next_leg = false;  //!< a leg's goal was reached: the next is requested once in HOLD
   bool killed = false;
   std::int64_t state_sequence = 0;
   std::int64_t plan_sequence = 0;
@@ -124,7 +128,7 @@ class SiteRig {
   [[nodiscard]] double least_between_m() const noexcept;
   //! Least of every member's true clearance to the site. [m]
   [[nodiscard]] double least_to_site_m() const noexcept;
-  //! Whether member's lift is done: the goal was reached once.
+  //! Whether member's lifts are done: every lift of its queue.
   [[nodiscard]] bool lift_done(const SiteRigMember& m) const noexcept;
   [[nodiscard]] const firmware::SiteKey& key() const noexcept { return key_; }
 
