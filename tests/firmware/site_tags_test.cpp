@@ -6,10 +6,13 @@
 #include "mgc/firmware/site_member.hpp"
 #include "mgc/planning/io/site_loader.hpp"
 #include "mgc/planning/machine_model.hpp"
+#include "mgc/sim/site_simulation.hpp"
 
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -128,4 +131,32 @@ TEST_CASE("site tags: the fit finds the joints, their velocity, and grows by wha
     CHECK_FALSE(pose.valid);
     CHECK(pose.tags_used == 0);
   }
+}
+
+TEST_CASE("mgc-sim --site: each machine's gateway reports the other machines' site tags where their true joints put them", "[unit][uwb]") {
+  const planning::Site site = planning::io::load_site(std::string(MGC_SOURCE_DIR) + "/scenarios/sites/thesis-steel-frame.yaml");
+  hal::ManualClock clock(1'000'000);
+  auto a = hal::open_can_bus("loop:site-tags-1", &clock);
+  auto b = hal::open_can_bus("loop:site-tags-2", &clock);
+  REQUIRE(a);
+  REQUIRE(b);
+  const std::array<hal::CanBus*, 2> buses{a.bus.get(), b.bus.get()};
+  sim::SiteSimulation world(site, buses, sim::SimConfig{}, std::nullopt);
+  // The TMS870's simulator reports the tower crane's four tags; the tower crane's none (the TMS870 has none).
+  REQUIRE(world.simulator(0).site_tags().size() == 4);
+  CHECK(world.simulator(1).site_tags().empty());
+  world.step(1'000'000);
+  const auto tower = planning::build_model(planning::lift_scenario(site, 1, 0));
+  planning::Kinematics k;
+  planning::JointVector q(3);
+  for (int j = 0; j < 3; ++j) q[j] = world.simulator(1).truth().position[static_cast<std::size_t>(j)];
+  tower->forward_kinematics(q, k);
+  for (const sim::SiteSimTag& t : world.simulator(0).site_tags()) {
+    CAPTURE(static_cast<int>(t.tag_id));
+    CHECK(world.simulator(0).site_tag_position(t).isApprox(planning::tag_position(k, t.mount, t.position_m), 1e-9));
+  }
+  // The trolley's tag at the lift's start: 30 m out along slew -30 deg from the mast at (-40, -10).
+  const Eigen::Vector3d trolley = world.simulator(0).site_tag_position(world.simulator(0).site_tags()[1]);
+  CHECK(std::hypot(trolley.x() + 40.0, trolley.y() + 10.0) == Approx(30.0).margin(1e-6));
+  CHECK(std::atan2(trolley.y() + 10.0, trolley.x() + 40.0) == Approx(-30.0 * 3.14159265358979323846 / 180.0).margin(1e-6));
 }
