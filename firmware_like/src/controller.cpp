@@ -925,7 +925,18 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
   if (have_reading_) {
     in.safety.stop_check = check_.status;
     in.safety.warning_speed_scale = check_.speed_scale;
-    if (rcl_) in.safety.rcl_stage = rcl_result_.stage;
+    if (rcl_) {
+      in.safety.rcl_stage = rcl_result_.stage;
+      // A machine standing at the chart's rating exactly (which the planner accepts) may still
+      // slew, luff up, telescope in and lower; the stop is for a load over the chart or a path
+      // that asks for a motion the limiter holds.
+      bool cuts_path = rcl_result_.utilisation > config_.rated_capacity.cutoff_utilisation;
+      for (int j = 0; j < n_; ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        cuts_path = cuts_path || (rcl_result_.cut[k] && std::abs(v_command_[j]) > config_.rest_speed);
+      }
+      in.safety.rcl_cuts_path = cuts_path;
+    }
     if (envelope_) in.safety.envelope_violated = envelope_result_.violated;
     // Stopped for a higher-priority machine: the lower one re-plans round its plan, so the
     // supervisor takes it as a safety stop (a higher one only waits: the speed factor below).

@@ -525,7 +525,7 @@ void Supervisor::step_state(const SupervisorInputs& in, SupervisorOutput& out) n
         stop = TransitionReason::SafetyCheckError;
       } else if (in.safety.envelope_violated) {
         stop = TransitionReason::EnvelopeViolated;
-      } else if (in.safety.rcl_stage == RclStage::Overload || in.safety.rcl_stage == RclStage::OutsideChart) {
+      } else if ((in.safety.rcl_stage == RclStage::Overload && in.safety.rcl_cuts_path) || in.safety.rcl_stage == RclStage::OutsideChart) {
         stop = TransitionReason::RatedCapacityCut;
       }
       if (stop != TransitionReason::None) {

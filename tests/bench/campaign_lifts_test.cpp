@@ -100,3 +100,25 @@ TEST_CASE("campaign lifts 1023, 1025, 1031: a 110-ft boom fully extended reads p
     CHECK(rec.twin.samples_chart_exceeded == 0);
   }
 }
+
+TEST_CASE("campaign lifts 1165, 1232: a 110-ft boom standing at the chart's rating exactly slews and luffs up without a stop",
+          "[bench][campaign]") {
+  // The generated start is at the chart's minimum elevation for the task's load: 100 % of the
+  // rating, which the planner accepts. The supervisor stopped every motion on the limiter's
+  // overload and re-planned from rest, over and over, where the limiter itself lets a slew, a luff
+  // up or a telescope in go on.
+  CampaignOptions options;
+  options.scenarios_dir = std::string(MGC_SOURCE_DIR) + "/scenarios";
+  options.threads = 1;
+  options.progress = false;
+  for (const int lift : {1165, 1232}) {
+    const LiftRecord rec = run_campaign_lift(options, lift);
+    INFO(lift_record_text(rec));
+    REQUIRE(rec.site.rfind("crane-110ft-min-angle", 0) == 0);
+    CHECK(rec.twin.completed);
+    CHECK(rec.twin.stops == 0);
+    // Judged in the true state: the chart never exceeded.
+    CHECK(rec.twin.samples_chart_exceeded == 0);
+    CHECK(rec.twin.peak_chart <= 1.0);
+  }
+}

@@ -1249,3 +1249,36 @@ TEST_CASE("names of states, reasons and outcomes", "[unit]") {
     CHECK(std::strlen(to_string(static_cast<TransitionReason>(r))) < kTransitionDetailChars);
   }
 }
+
+TEST_CASE("an overload at the chart's rating exactly stops the lift only when the limiter holds a motion of the path", "[unit]") {
+  Machine m;
+  drive_to(m, SupervisorState::Executing);
+  // The limiter holds the moment-increasing motions at zero; a slew or a luff up goes on.
+  SupervisorOutput out = m.step([](SupervisorInputs& in) {
+    moving(in);
+    in.safety.rcl_stage = RclStage::Overload;
+    in.safety.rcl_cuts_path = false;
+  });
+  CHECK(out.state == SupervisorState::Executing);
+  CHECK_FALSE(out.transitioned);
+  // The path asks for a motion the limiter holds (or the load is over the chart): stop, re-plan.
+  out = m.step([](SupervisorInputs& in) {
+    moving(in);
+    in.safety.rcl_stage = RclStage::Overload;
+    in.safety.rcl_cuts_path = true;
+  });
+  CHECK(out.state == SupervisorState::Stopping);
+  CHECK(out.reason == TransitionReason::RatedCapacityCut);
+}
+
+TEST_CASE("outside the chart stops the lift whatever the limiter cuts", "[unit]") {
+  Machine m;
+  drive_to(m, SupervisorState::Executing);
+  const SupervisorOutput out = m.step([](SupervisorInputs& in) {
+    moving(in);
+    in.safety.rcl_stage = RclStage::OutsideChart;
+    in.safety.rcl_cuts_path = false;
+  });
+  CHECK(out.state == SupervisorState::Stopping);
+  CHECK(out.reason == TransitionReason::RatedCapacityCut);
+}

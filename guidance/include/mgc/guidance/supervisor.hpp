@@ -143,6 +143,11 @@ struct SafetyInputs {
   double warning_speed_scale = 1.0;  //!< StopCheckResult::speed_scale, used in Warning [0, 1]
   bool envelope_violated = false;    //!< EnvelopeResult::violated
   RclStage rcl_stage = RclStage::Normal;  //!< RatedCapacityResult::stage (cranes; Normal otherwise)
+  //! In `Overload`: the load is over the chart, or the limiter cuts a motion the path commands. At
+  //! the chart's rating exactly, the planner's boundary, the motions that keep or lower the load
+  //! moment go on while the limiter holds the others at zero; only a cut that would stall the path
+  //! (or a load over the chart) stops the lift.
+  bool rcl_cuts_path = true;
 };
 
 //! Operator commands that arrived this cycle, already authenticated upstream (command_auth.hpp).
