@@ -462,13 +462,18 @@ void Controller::run_safety() noexcept {
     // 0 just as the velocity reaches 0. A cut of the command by more (a speed scale that falls in
     // one cycle) would otherwise brake through rest into a reverse swing no actuator makes. The
     // estimated acceleration is a second difference of encoder counts: within the joint's limit it
-    // is plausible, beyond it noise.
+    // is plausible, beyond it noise. It counts only while braking: an actuator that follows its
+    // command with a lag does not speed up once it has caught up with it, and at a steady speed
+    // the second difference swings to the limit both ways from cycle to cycle; taken as speeding
+    // up it added a second to the predicted stop of a slewing boom beside a tower and stopped it
+    // in the stop zone (a runaway from the command is the plausibility monitor's).
     const planning::JointSpec& spec = model_->joints()[k];
     const double a_max = spec.max_acceleration;
     const double a_cmd = limiter_.acceleration()[k];
     const double braking_max = std::min(a_max, std::sqrt(2.0 * spec.max_jerk * std::abs(v_cmd)));
+    const double a_est = acceleration_[k];
     const double a = command_faster ? (a_cmd * v_cmd > 0.0 ? 0.0 : std::clamp(a_cmd, -braking_max, braking_max))
-                                    : std::clamp(acceleration_[k], -a_max, a_max);
+                                    : (a_est * velocity_[k] > 0.0 ? 0.0 : std::clamp(a_est, -a_max, a_max));
     state.joints[k] = {q_wrapped_[j], command_faster ? v_cmd : velocity_[k], a};
   }
   // Following an escape, with every obstacle settled: only a motion that comes nearer is stopped,
