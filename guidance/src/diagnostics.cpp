@@ -56,7 +56,8 @@ PlausibilityMonitor::PlausibilityMonitor(std::span<const PlausibilityJoint> join
   if (!positive(config.tolerance_rad) || !positive(config.tolerance_m) || !positive(config.step_speed_factor) ||
       !positive(config.valve_tolerance) || !positive(config.valve_ramp_per_s) || config.stuck_samples < 1 ||
       !(config.range_margin_rad >= 0.0) || !(config.range_margin_m >= 0.0) || !(config.step_noise_rad >= 0.0) ||
-      !(config.step_noise_m >= 0.0) || !(config.stuck_travel_rad >= 0.0) || !(config.stuck_travel_m >= 0.0)) {
+      !(config.step_noise_m >= 0.0) || !(config.stuck_travel_rad >= 0.0) || !(config.stuck_travel_m >= 0.0) ||
+      !positive(config.drift_tolerance_rad) || !positive(config.drift_tolerance_m)) {
     fail("tolerances, margins and rates must be finite and positive (margins and noise >= 0), stuck_samples >= 1");
   }
   push_every_us_ = std::max<std::int64_t>(1, config.window_us / static_cast<std::int64_t>(kWindowEntries - 8));
@@ -128,6 +129,7 @@ void PlausibilityMonitor::check_samples(std::size_t j, const PlausibilityInputs&
   if (!in.valid[j]) {
     // No data: nothing to compare, and the history must not bridge the gap.
     s.have_sample = false;
+    s.drift_ready = false;
     s.count = 0;
     s.frozen = 0;
     s.expected_plus_since_change = 0.0;
@@ -227,6 +229,42 @@ void PlausibilityMonitor::check_window(std::size_t j, std::int64_t now_us) noexc
   }
 }
 
+void PlausibilityMonitor::check_drift(std::size_t j, bool fresh, std::int64_t now_us) noexcept {
+  JointState& s = state_[j];
+  if (!s.have_sample) return;
+  const PlausibilityJoint& joint = joints_[j];
+  // Within the tolerance of an end stop the model's bounds take no speed into the stop (the joint
+  // stands there) while the joint may still run the rest of the way onto it: the sums start again
+  // outside.
+  const double tolerance_stop = joint.prismatic ? config_.tolerance_m : config_.tolerance_rad;
+  const bool at_end_stop = !joint.continuous && (s.q <= joint.position_min + tolerance_stop || s.q >= joint.position_max - tolerance_stop);
+  if (!s.drift_ready || at_end_stop) {
+    s.drift_ready = true;
+    s.shortfall_plus = 0.0;
+    s.shortfall_minus = 0.0;
+  } else if (fresh) {
+    // The step since the last sample: the sample (the machine at the previous SYNC) against the
+    // model's travel up to then, as in the window. Where the joint does better than the least the
+    // sum falls, never below 0, so slack earned before a lie began does not hide it. A cycle
+    // without a sample adds its model travel to the next one's.
+    const double travel = s.q - s.drift_q;
+    const double least_plus = s.lo - s.drift_lo;
+    const double least_minus = s.hi - s.drift_hi;
+    s.shortfall_plus = s.v_lo > 0.0 ? std::max(0.0, s.shortfall_plus + least_plus - travel) : 0.0;
+    s.shortfall_minus = s.v_hi < 0.0 ? std::max(0.0, s.shortfall_minus + travel - least_minus) : 0.0;
+  } else {
+    return;
+  }
+  s.drift_q = s.q;
+  s.drift_lo = s.lo;
+  s.drift_hi = s.hi;
+  const double tolerance = joint.prismatic ? config_.drift_tolerance_m : config_.drift_tolerance_rad;
+  const double shortfall = std::max(s.shortfall_plus, s.shortfall_minus);
+  peak_window_ratio_ = std::max(peak_window_ratio_, shortfall / tolerance);
+  // A value that repeats is the stuck check's to judge (5 samples); the sum carries on meanwhile.
+  if (shortfall > tolerance && s.frozen == 0) raise(PlausibilityFault::JointNotFollowing, static_cast<int>(j), now_us);
+}
+
 void PlausibilityMonitor::check_valve(const PlausibilityInputs& in, double dt_s) noexcept {
   // The model follows every command sent, whether or not the valve's reports arrive: a gap in its
   // status (a stalled node, a late bus) must not restart the model from zero, or the first fresh
@@ -284,6 +322,8 @@ const PlausibilityResult& PlausibilityMonitor::update(const PlausibilityInputs& 
     // The sample read now shows the machine at the previous SYNC: it is compared with the model's
     // travel up to then, and this cycle's step is added after.
     check_window(j, in.now_us);
+    if (result_.fault != PlausibilityFault::None) return result_;
+    check_drift(j, in.valid[j] && in.updated[j], in.now_us);
     if (result_.fault != PlausibilityFault::None) return result_;
     if (push && s.have_sample) {
       s.ring[s.head] = {in.now_us, s.q, s.lo, s.hi};

@@ -57,6 +57,13 @@ struct PlausibilityConfig {
   //! Travel beyond the bracket that counts as a fault. [rad]
   double tolerance_rad = 0.15 * 3.14159265358979323846 / 180.0;
   double tolerance_m = 0.02;  //!< the same for a prismatic joint [m]
+  //! A slow lie that the window's tolerance hides: the shortfall against the model's least travel,
+  //! accumulated for as long as the model asks for motion one way (a CUSUM: it falls back toward 0
+  //! where the joint does better than the least, and restarts when the model no longer asks for
+  //! that motion), beyond this is JointNotFollowing. Encoder noise (0.5 counts) and the sample's
+  //! timing against the model stay far below it; they do not add up. [rad | m]
+  double drift_tolerance_rad = 0.1 * 3.14159265358979323846 / 180.0;
+  double drift_tolerance_m = 0.01;
   //! A value this far beyond an end stop is out of range. [rad | m]
   double range_margin_rad = 0.5 * 3.14159265358979323846 / 180.0;
   double range_margin_m = 0.05;
@@ -158,6 +165,14 @@ class PlausibilityMonitor {
     double spool_model = 0.0;         //!< the valve's ramp applied to the commands [-]
     double spool_model_prev = 0.0;
     std::int64_t mismatch_since_us = -1;
+    //! The accumulated shortfall against the model's least travel in + and in - (each >= 0), and
+    //! the measured position and model integrals it was last brought up to. [rad | m]
+    bool drift_ready = false;
+    double shortfall_plus = 0.0;
+    double shortfall_minus = 0.0;
+    double drift_q = 0.0;
+    double drift_lo = 0.0;
+    double drift_hi = 0.0;
   };
 
   //! The bracket's least and most travel over one step. [rad | m]
@@ -171,6 +186,7 @@ class PlausibilityMonitor {
   Travel update_models(JointState& s, const PlausibilityJoint& joint, double command, double dt_s) noexcept;
   void check_samples(std::size_t j, const PlausibilityInputs& in) noexcept;
   void check_window(std::size_t j, std::int64_t now_us) noexcept;
+  void check_drift(std::size_t j, bool fresh, std::int64_t now_us) noexcept;
   void check_valve(const PlausibilityInputs& in, double dt_s) noexcept;
 
   std::array<PlausibilityJoint, kMaxJoints> joints_{};
