@@ -69,6 +69,7 @@ void PlausibilityMonitor::reset() noexcept {
   started_ = false;
   counter_known_ = false;
   peak_window_ratio_ = 0.0;
+  peak_drift_ratio_ = 0.0;
 }
 
 void PlausibilityMonitor::raise(PlausibilityFault fault, int joint, std::int64_t now_us) noexcept {
@@ -260,7 +261,7 @@ void PlausibilityMonitor::check_drift(std::size_t j, bool fresh, std::int64_t no
   s.drift_hi = s.hi;
   const double tolerance = joint.prismatic ? config_.drift_tolerance_m : config_.drift_tolerance_rad;
   const double shortfall = std::max(s.shortfall_plus, s.shortfall_minus);
-  peak_window_ratio_ = std::max(peak_window_ratio_, shortfall / tolerance);
+  peak_drift_ratio_ = std::max(peak_drift_ratio_, shortfall / tolerance);
   // A value that repeats is the stuck check's to judge (5 samples); the sum carries on meanwhile.
   if (shortfall > tolerance && s.frozen == 0) raise(PlausibilityFault::JointNotFollowing, static_cast<int>(j), now_us);
 }

@@ -90,11 +90,11 @@ TEST_CASE("the controller's cycle does not allocate through a plan, a stop, a re
 }
 
 TEST_CASE("the controller's cycle does not allocate through a retreat and an escape", "[firmware][sim][alloc]") {
-  // 19.8 s ahead crane 2 parks so near the stopped crane that only a retreat gets it out
+  // 20.4 s ahead crane 2 parks so near the stopped crane that only a retreat gets it out
   // (controller_test.cpp): the retreat search, the escape plan with its larger cap, and the
   // escape followed under the retreat floor.
   sim::SimConfig config = SimRig::quiet_config();
-  config.scenario_time_offset_s = 19.8;
+  config.scenario_time_offset_s = 20.4;
   SimRig rig("thesis-steel-frame.yaml", config, "ctl-alloc-retreat");
   rig.calibrate_valves();
   // The thesis's DRRT takes the west route, where crane 2 parks (controller_test.cpp).

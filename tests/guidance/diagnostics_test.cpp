@@ -537,7 +537,7 @@ TEST_CASE("the accumulated shortfall stays quiet with encoder noise, the SYNC's 
         b.lie[0] = counts(noise);
       });
       REQUIRE(r.fault == PlausibilityFault::None);
-      peak = std::max(peak, b.monitor.peak_window_ratio());
+      peak = std::max(peak, b.monitor.peak_drift_ratio());
     }
     CAPTURE(peak);
     CHECK(peak < 0.5);

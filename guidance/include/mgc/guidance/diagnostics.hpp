@@ -134,6 +134,8 @@ class PlausibilityMonitor {
   //! Largest share of its threshold any window check reached since reset (1 = at the threshold):
   //! the margin the motion checks kept against a false alarm. [-]
   [[nodiscard]] double peak_window_ratio() const noexcept { return peak_window_ratio_; }
+  //! Largest share of its tolerance the accumulated shortfall reached since reset. [-]
+  [[nodiscard]] double peak_drift_ratio() const noexcept { return peak_drift_ratio_; }
   [[nodiscard]] const PlausibilityConfig& config() const noexcept { return config_; }
 
  private:
@@ -204,6 +206,7 @@ class PlausibilityMonitor {
   std::int64_t counter_change_us_ = 0;
   std::uint32_t sent_at_change_ = 0;
   double peak_window_ratio_ = 0.0;
+  double peak_drift_ratio_ = 0.0;
 };
 
 //! The machine's own UWB tags against forward kinematics of its encoders (docs/diagnostics.md
