@@ -616,5 +616,3 @@ TEST_CASE("the controller refuses a site's guidance margins that do not fit toge
   s.guidance->planning_margin_m = 1.5;
   CHECK(message().empty());
 }
-
-
