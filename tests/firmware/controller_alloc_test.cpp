@@ -13,6 +13,7 @@
 #include "mgc/firmware/controller.hpp"
 #include "mgc/planning/io/site_loader.hpp"
 #include "mgc/sim/site_rig.hpp"
+#include "site_member_support.hpp"
 
 using namespace mgc;
 using test::SimRig;
@@ -134,16 +135,7 @@ TEST_CASE("a site member's cycle does not allocate: the rules, the meet scan, th
 TEST_CASE("a site member posing a stale machine from its UWB tags does not allocate: the fit, its scan, its worlds", "[firmware][sim][alloc][site]") {
   // The tower crane of the crossing lifts with the site's tags on it, its messages stopped 1 s in
   // while it lifts on: the TMS870 fits it from its tags every cycle and poses it from them.
-  planning::Site site = planning::io::load_site(std::string(MGC_SOURCE_DIR) + "/scenarios/sites/crossing-cranes.yaml");
-  const auto tag = [](int id, const char* body, Eigen::Vector3d at) {
-    planning::MachineTagSpec t;
-    t.id = id;
-    t.body = body;
-    t.position_m = at;
-    return t;
-  };
-  site.machines[1].uwb_tags = {tag(1, "jib", {0, 0, 29.85}), tag(2, "trolley", {0, 0, 0}), tag(3, "counter_jib", {0, 0, 10}),
-                               tag(4, "hook", {0, 0, 0})};
+  const planning::Site site = test::tagged_crossing_site();
   sim::SiteRigConfig config;
   config.lift_start_s = {0.0, 0.0};
   config.uwb = sim::UwbParams{};

@@ -8,6 +8,7 @@
 #include "mgc/firmware/site_auth.hpp"
 #include "mgc/planning/io/site_loader.hpp"
 #include "mgc/sim/site_rig.hpp"
+#include "site_member_support.hpp"
 #include "mgc/planning/machine_model.hpp"
 
 #include <mgc/alert_t.hpp>
@@ -72,21 +73,6 @@ bool stale_alert_says(const firmware::GuidanceSnapshot& g, std::int32_t machine_
     }
   }
   return false;
-}
-
-//! crossing_site() with the site's RTLS on the tower crane: jib tip, trolley, counterweight, hook.
-planning::Site tagged_crossing_site() {
-  planning::Site site = crossing_site();
-  const auto tag = [](int id, const char* body, Eigen::Vector3d at) {
-    planning::MachineTagSpec t;
-    t.id = id;
-    t.body = body;
-    t.position_m = at;
-    return t;
-  };
-  site.machines[1].uwb_tags = {tag(1, "jib", {0, 0, 29.85}), tag(2, "trolley", {0, 0, 0}), tag(3, "counter_jib", {0, 0, 10}),
-                               tag(4, "hook", {0, 0, 0})};
-  return site;
 }
 
 //! Largest distance between a moving body's centre posed at q and at the truth's joints. [m]
@@ -204,8 +190,8 @@ TEST_CASE("a stale member seen by the site's UWB tags is posed from them: tracke
     sim::SiteRigConfig config;
     config.lift_start_s = {0.0, 0.0};
     config.uwb = sim::UwbParams{};
-    sim::SiteRig rig(tagged_crossing_site(), config, "stale-uwb");
-    const auto model = planning::build_model(planning::lift_scenario(tagged_crossing_site(), 1, 0));
+    sim::SiteRig rig(test::tagged_crossing_site(), config, "stale-uwb");
+    const auto model = planning::build_model(planning::lift_scenario(test::tagged_crossing_site(), 1, 0));
     rig.run_until(mute_s);
     rig.mute(kHigher);
     sim::SiteRigMember& lower = rig.member(kLower);
