@@ -189,6 +189,7 @@ url = "http://127.0.0.1:%d/" % http_port
 procs = {}
 browser = None
 status = 1
+faulted_before_test = False
 try:
     procs["logger"] = start([logger_bin, "-q", "-f", "--lcm-url=" + lcm_url, log_file], "logger")
     procs["display"] = start([display_bin, "--port", str(http_port), "--lcm-url", lcm_url, "--scenario", scenario,
@@ -248,7 +249,12 @@ try:
     browser.get(url)
     browser.execute_script(watch_supervisor)
     check(wait_for(lambda: text("feed-status") == "LIVE", 20), "the page says LIVE once mgc's feed comes: " + text("feed-status"))
-    require(wait_for(lambda: text("supervisor") == "HOLD", 20), "mgc ready, the page shows HOLD: " + text("supervisor"))
+    wait_for(lambda: text("supervisor") in ("HOLD", "FAULT"), 20)
+    # A stall of the host longer than the valve node's command timeout (50 ms) ends the machine's
+    # start in FAULT, by design (docs/control-loop.md), before the page has been asked anything:
+    # that run says nothing of the display, and the test runs once more (below).
+    faulted_before_test = text("supervisor") == "FAULT"
+    require(text("supervisor") == "HOLD", "mgc ready, the page shows HOLD: " + text("supervisor"))
     check(text("key-note") == "Signed with the operator key as sender 2." and browser.find_element(By.ID, "goal").is_enabled(),
           "the goal control is enabled with the key: " + text("key-note"))
     # At rest without a goal (and the log's HOLD spans more than a step of the slider later).
@@ -457,4 +463,8 @@ finally:
     shutil.rmtree(tmp, ignore_errors=True)
 
 print("%d passed, %d failed" % (len(passes), len(failures)))
+if faulted_before_test and not os.environ.get("MGC_DISPLAY_MGC_RETRY"):
+    print("mgc went to FAULT before the test's first action (mgc-sim's timing line above shows the stall); "
+          "the test runs once more", flush=True)
+    os.execve(sys.executable, [sys.executable] + sys.argv, dict(os.environ, MGC_DISPLAY_MGC_RETRY="1"))
 sys.exit(1 if failures else status)
