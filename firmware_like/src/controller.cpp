@@ -932,9 +932,9 @@ ControllerOutput Controller::step_impl(const hal::SensorSnapshot& s, std::int64_
     in.safety.warning_speed_scale = check_.speed_scale;
     if (rcl_) {
       in.safety.rcl_stage = rcl_result_.stage;
-      // A machine standing at the chart's rating exactly (which the planner accepts) may still
-      // slew, luff up, telescope in and lower; the stop is for a load over the chart or a path
-      // that asks for a motion the limiter holds.
+      // A machine standing at the chart's rating exactly (where the planner never takes it, but an
+      // operator may) may still slew, luff up, telescope in and lower; the stop is for a load over
+      // the chart or a path that asks for a motion the limiter holds.
       bool cuts_path = rcl_result_.utilisation > config_.rated_capacity.cutoff_utilisation;
       for (int j = 0; j < n_; ++j) {
         const auto k = static_cast<std::size_t>(j);

@@ -4,11 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
 namespace mgc::guidance {
 namespace {
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 //! Keeps the chart's own boom lengths, converted from feet, inside their row (as LoadChartRule). [m]
 constexpr double kRowToleranceM = 1e-6;
 //! A radius gradient below this is rounding noise of the central difference. [m per rad | m per m]
@@ -32,7 +30,7 @@ RatedCapacity rated_capacity(const planning::LoadChart& chart, double boom_lengt
   std::size_t row = 0;
   while (row < rows && boom_length_m > chart.boom_lengths_ft[row] * planning::kMetresPerFoot + kRowToleranceM) ++row;
   if (row == rows) return out;
-  const double from_vertical_deg = 90.0 - boom_elevation_rad * kRadToDeg;
+  const double from_vertical_deg = planning::angle_from_vertical_deg(boom_elevation_rad);
   const auto& capacities = chart.capacity_lb[row];
   const auto& angles = chart.max_angle_from_vertical_deg[row];
   for (std::size_t c = 0; c < chart.radii_ft.size(); ++c) {
@@ -83,8 +81,8 @@ RatedCapacity rated_capacity_along(const planning::LoadChart& chart, double from
     }
     const double e0 = from_elevation_rad + t0 * (to_elevation_rad - from_elevation_rad);
     const double e1 = from_elevation_rad + t1 * (to_elevation_rad - from_elevation_rad);
-    const double nearest_deg = 90.0 - std::max(e0, e1) * kRadToDeg;
-    const double farthest_deg = 90.0 - std::min(e0, e1) * kRadToDeg;
+    const double nearest_deg = planning::angle_from_vertical_deg(std::max(e0, e1));
+    const double farthest_deg = planning::angle_from_vertical_deg(std::min(e0, e1));
     // Each angle reads the first cell whose angle reaches it: the cells read over the stretch run
     // from the nearest angle's cell to the farthest angle's.
     const auto& capacities = chart.capacity_lb[row];

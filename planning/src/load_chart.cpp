@@ -92,21 +92,33 @@ LoadChartRule::LoadChartRule(const LoadChart& chart, double load_lb) : load_lb_(
   for (std::size_t r = 0; r < chart.boom_lengths_ft.size(); ++r) {
     Row row;
     row.boom_length_m = chart.boom_lengths_ft[r] * kMetresPerFoot;
-    // App. G scans from the largest radius inward and stops at the first capacity that covers
-    // the load: the longest reach at which the load is rated.
-    for (std::size_t c = chart.radii_ft.size(); c-- > 0;) {
+    // The limiter reads the cell at the boom's angle (the next larger radius), so the rule takes
+    // the largest radius up to which every cell of the row rates the load: App. G scans from the
+    // largest radius inward for the first capacity that covers it, which is the same where the
+    // capacities fall with the radius, but not in the 36-ft row App. G keeps (69,800 lb at 15 ft
+    // between 110,500 and 78,750). Rated means strictly above the load: the limiter holds the
+    // moment-increasing motions from 100 % on, so a path through a cell rated at exactly the
+    // load could not be driven.
+    int last_rated = -1;
+    for (std::size_t c = 0; c < chart.radii_ft.size(); ++c) {
       const double capacity = chart.capacity_lb[r][c];
-      if (std::isnan(capacity)) continue;
-      if (load_lb <= capacity) {
-        row.column = static_cast<int>(c);
-        row.min_elevation_rad = (90.0 - chart.max_angle_from_vertical_deg[r][c]) * kDegToRad;
-        any = true;
-        break;
-      }
+      if (std::isnan(capacity) || std::isnan(chart.max_angle_from_vertical_deg[r][c])) continue;
+      if (!(load_lb < capacity)) break;
+      last_rated = static_cast<int>(c);
+    }
+    if (last_rated >= 0) {
+      row.column = last_rated;
+      // The lowest elevation whose angle from vertical, read back, is within the cell's: a
+      // conversion to radians and back may land a hair beyond it, in the next cell.
+      const double max_angle_deg = chart.max_angle_from_vertical_deg[r][static_cast<std::size_t>(last_rated)];
+      double e = (90.0 - max_angle_deg) * kDegToRad;
+      while (angle_from_vertical_deg(e) > max_angle_deg) e = std::nextafter(e, std::numeric_limits<double>::infinity());
+      row.min_elevation_rad = e;
+      any = true;
     }
     rows_.push_back(row);
   }
-  if (!any) throw std::invalid_argument("load is above every capacity of the load chart");
+  if (!any) throw std::invalid_argument("no capacity of the load chart exceeds the load");
 }
 
 ConstraintVerdict LoadChartRule::min_elevation(double boom_length_m) const noexcept {

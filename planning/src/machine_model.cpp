@@ -61,7 +61,7 @@ const char* to_string(ConstraintStatus status) noexcept {
   switch (status) {
     case ConstraintStatus::Ok: return "ok";
     case ConstraintStatus::BoomLengthOutsideChart: return "boom length outside the chart";
-    case ConstraintStatus::LoadAboveChart: return "load above every capacity of the chart row";
+    case ConstraintStatus::LoadAboveChart: return "no capacity of the chart row exceeds the load";
     case ConstraintStatus::BoomBelowChartAngle: return "boom elevation below the chart minimum";
     case ConstraintStatus::BoomAboveChartAngle: return "boom elevation above the allowed maximum";
     case ConstraintStatus::LoadBelowGround: return "load below the ground";

@@ -78,9 +78,19 @@ TEST_CASE("capacity reduction raises the load the chart must cover", "[unit]") {
   CHECK(rule.min_elevation(20.0).limit == Approx(46.5 * kDeg));
 }
 
-TEST_CASE("a load above every capacity cannot make a rule", "[unit]") {
+TEST_CASE("a load at or above every capacity cannot make a rule", "[unit]") {
   CHECK_THROWS_AS(LoadChartRule(chart(), 140001.0), std::invalid_argument);
-  CHECK_NOTHROW(LoadChartRule(chart(), 140000.0));
+  CHECK_THROWS_AS(LoadChartRule(chart(), 140000.0), std::invalid_argument);
+  CHECK_NOTHROW(LoadChartRule(chart(), 139999.0));
+}
+
+TEST_CASE("a cell rated at exactly the load does not rate it: the limiter holds motions from 100 % on", "[unit]") {
+  // 70-ft row: 24,650 lb at 43.5 deg from vertical, 20,700 lb at 50.5 deg. 20,700 lb exactly is
+  // rated by the 24,650 lb cell only: elevation >= 46.5 deg, not 39.5.
+  const LoadChartRule at(chart(), 20700.0);
+  CHECK(at.min_elevation(20.0).limit == Approx(46.5 * kDeg));
+  const LoadChartRule below(chart(), 20699.0);
+  CHECK(below.min_elevation(20.0).limit == Approx(39.5 * kDeg));
 }
 
 TEST_CASE("seed 000 luff table: rows exact, conservative between rows", "[unit]") {

@@ -5,6 +5,9 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <optional>
+#include <stdexcept>
+#include <vector>
 
 #include "fixture.hpp"
 #include "mgc/guidance/rated_capacity.hpp"
@@ -61,6 +64,56 @@ TEST_CASE("utilisation stages at 90 % and 100 % agree with the load-chart rule",
   const RatedCapacityResult over = rcl.limit_velocity(ThesisCrane::q(80, 39.4, 20, 14.82), 20000.0, still);
   CHECK(over.stage == RclStage::Overload);
   CHECK(over.utilisation == Approx(20000.0 / 17500.0));
+}
+
+TEST_CASE("wherever the load-chart rule accepts a configuration the limiter holds no motion", "[property]") {
+  // Every load the chart's own capacities name (the case where App. G's "covers" and the limiter's
+  // 100 % meet), one pound either side, and a 500-lb grid; every row's boom length and one between
+  // rows; elevations every 0.25 deg and at the rule's limit itself.
+  ThesisCrane t;
+  const planning::LoadChart& chart = t.crane.chart();
+  std::vector<double> loads;
+  for (double lb = 500.0; lb <= 150000.0; lb += 500.0) loads.push_back(lb);
+  for (const auto& row : chart.capacity_lb) {
+    for (const double c : row) {
+      if (std::isnan(c)) continue;
+      loads.insert(loads.end(), {c - 1.0, c, c + 1.0});
+    }
+  }
+  std::vector<double> booms_m;
+  for (std::size_t r = 0; r < chart.boom_lengths_ft.size(); ++r) {
+    booms_m.push_back(chart.boom_lengths_ft[r] * planning::kMetresPerFoot);
+    if (r + 1 < chart.boom_lengths_ft.size()) {
+      booms_m.push_back(0.5 * (chart.boom_lengths_ft[r] + chart.boom_lengths_ft[r + 1]) * planning::kMetresPerFoot);
+    }
+  }
+  const planning::JointVector still = planning::JointVector::Zero(4);
+  std::size_t accepted = 0;
+  for (const double load_lb : loads) {
+    std::optional<planning::LoadChartRule> rule;
+    try {
+      rule.emplace(chart, load_lb);
+    } catch (const std::invalid_argument&) {
+      continue;
+    }
+    for (const double boom_m : booms_m) {
+      std::vector<double> elevations_deg;
+      for (double e = 0.0; e <= 85.0; e += 0.25) elevations_deg.push_back(e);
+      const planning::ConstraintVerdict limit = rule->min_elevation(boom_m);
+      if (limit.ok()) elevations_deg.push_back(limit.limit / kDeg);
+      for (const double e_deg : elevations_deg) {
+        if (!rule->check(boom_m, e_deg * kDeg).ok()) continue;
+        RatedCapacityLimiter rcl(t.crane, RatedCapacityConfig{});
+        const RatedCapacityResult r = rcl.limit_velocity(ThesisCrane::q(0, e_deg, boom_m, 5.0), load_lb, still);
+        ++accepted;
+        INFO("load " << load_lb << " lb, boom " << boom_m << " m, elevation " << e_deg << " deg: utilisation " << r.utilisation);
+        REQUIRE(r.stage != RclStage::Overload);
+        REQUIRE(r.stage != RclStage::OutsideChart);
+        REQUIRE(r.utilisation < 1.0);
+      }
+    }
+  }
+  CHECK(accepted > 100000);
 }
 
 TEST_CASE("in overload the moment-increasing motions are cut and the rest allowed", "[unit]") {

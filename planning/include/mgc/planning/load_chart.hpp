@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -24,10 +25,22 @@ struct LoadChart {
   std::vector<std::vector<double>> max_angle_from_vertical_deg;  //!< [row][column] [deg] [n/a: NaN]
 };
 
+//! A boom's angle from vertical [deg] at boom_elevation_rad [rad], as the chart's columns state it.
+//! The planner's rule and the rated capacity limiter both read the chart through it, so that at a
+//! cell's boundary they agree to the last bit.
+[[nodiscard]] inline double angle_from_vertical_deg(double boom_elevation_rad) noexcept {
+  return 90.0 - boom_elevation_rad * (180.0 / std::numbers::pi);
+}
+
 //! The thesis's load-chart rule (ICE-Planner App. G, "LVA") for one load: the boom-length row is
-//! the first chart boom length at or above the actual one; in that row the largest radius whose
-//! capacity covers the load sets the maximum boom angle from vertical, i.e. the minimum boom
-//! elevation. Computed once per load so a check is a search over a handful of rows.
+//! the first chart boom length at or above the actual one; in that row the largest radius up to
+//! which every cell's capacity exceeds the load sets the maximum boom angle from vertical, i.e. the
+//! minimum boom elevation. So the rule accepts a configuration only where the rated capacity
+//! limiter, which reads the cell at the boom's angle, stands below 100 % and holds no motion. App.
+//! G differs twice: it takes a capacity equal to the load (the limiter cuts the moment-increasing
+//! motions and hoist raising at 100 %, so a path through such a cell could not be driven), and it
+//! takes the largest radius whose own capacity covers the load (the same where capacities fall
+//! with the radius, which App. G's 36-ft row does not). Computed once per load so a check is a search over a handful of rows.
 class LoadChartRule {
  public:
   //! load_lb already includes any capacity reduction. Throws std::invalid_argument when no row
