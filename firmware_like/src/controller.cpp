@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -1348,6 +1349,12 @@ double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& pee
     const double apart_m = site_apart_m(p, *me, grow_m);
     if (apart_m >= bound_m) return apart_m;
   }
+  site_pose_meet(p, grow_m);
+  p.nearest = p.meet_world->nearest_below(my_q, planning::CollisionWorld::Bodies::All, 0.0, bound_m, &p.nearest);
+  return p.nearest.dynamic_obstacle.distance_m;
+}
+
+void Controller::site_pose_meet(SitePeerModel& p, double grow_m) noexcept {
   for (std::size_t k = 0; k < p.moving_bodies.size(); ++k) {
     const auto b = static_cast<std::size_t>(p.moving_bodies[k]);
     const planning::BodyState& body = p.kinematics.bodies[b];
@@ -1357,11 +1364,44 @@ double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& pee
     p.meet_world->set_dynamic_part_size(static_cast<int>(k), 0, grown);
     p.meet_world->set_dynamic_pose(static_cast<int>(k), body.world_from_body);
   }
-  if (!std::isfinite(bound_m)) {
-    return p.meet_world->clearance(my_q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
+}
+
+bool Controller::site_leads_apart(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
+                                  const planning::JointVector& moving_q, double moving_known_m, const planning::JointVector& still_q,
+                                  double still_known_m) noexcept {
+  // Standing still where the way starts: one gap both ways, which no motion widens.
+  if (moving_q.size() == still_q.size() &&
+      std::memcmp(moving_q.data(), still_q.data(), sizeof(double) * static_cast<std::size_t>(moving_q.size())) == 0) {
+    return false;
   }
-  p.nearest = p.meet_world->nearest_below(my_q, planning::CollisionWorld::Bodies::All, 0.0, bound_m, &p.nearest);
-  return p.nearest.dynamic_obstacle.distance_m;
+  // Posed as the scan's sample posed it (setting the same pose and sizes again changes nothing).
+  p.model->forward_kinematics(peer_q, p.kinematics);
+  site_pose_meet(p, grow_m);
+  // clearance()'s gap: 0 in contact with the other machine or with myself (is_free()), else the
+  // distance, which nearest_below() gives below its bound and otherwise reports as the bound.
+  const auto touches = [&p](const planning::JointVector& q) noexcept { return !p.meet_world->is_free(q); };
+  // The scan's hint is read, not replaced: the samples' queries start from the pair they found.
+  const auto gap_below = [&](const planning::JointVector& q, double bound_m) noexcept {
+    if (touches(q)) return 0.0;
+    return p.meet_world->nearest_below(q, planning::CollisionWorld::Bodies::All, 0.0, bound_m, &p.nearest).dynamic_obstacle.distance_m;
+  };
+  // Each gap measured only up to what decides moving > still + kSiteApartM: a gap reported at its
+  // bound (kSiteBoundSlackM beyond the threshold) compares as the gap itself would.
+  if (!std::isnan(moving_known_m)) {
+    const double moving_m = touches(moving_q) ? 0.0 : moving_known_m;
+    // No stand is nearer than touching.
+    if (moving_m <= kSiteApartM) return false;
+    const double still_m = gap_below(still_q, moving_m - kSiteApartM + kSiteBoundSlackM);
+    return moving_m > still_m + kSiteApartM;
+  }
+  double still_m = 0.0;
+  if (std::isnan(still_known_m)) {
+    still_m = gap_below(still_q, std::numeric_limits<double>::infinity());
+  } else {
+    still_m = touches(still_q) ? 0.0 : still_known_m;
+  }
+  const double moving_m = gap_below(moving_q, still_m + kSiteApartM + kSiteBoundSlackM);
+  return moving_m > still_m + kSiteApartM;
 }
 
 void Controller::site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept {
@@ -1598,9 +1638,11 @@ void Controller::site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) 
       const double matters_m = tau_s == 0.0 ? margin_m + horizon_s * (my_bound_m_s + p.max_point_speed_m_s) + my_reach_at(horizon_s)
                                             : margin_m + reach_m;
       // At the first sample I stand where I am: the boxes of my bodies there are compared first.
-      const double gap_m = tau_s == 0.0
-                               ? site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, q_wrapped_, matters_m + kSiteBoundSlackM, &site_kin_) - reach_m
-                               : site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_, matters_m + kSiteBoundSlackM) - reach_m;
+      const double sample_grow_m = grow_m + start_m + 0.5 * between_m;
+      const double sample_bound_m = matters_m + kSiteBoundSlackM;
+      const double sample_m = tau_s == 0.0 ? site_gap_m(p, site_q2_, sample_grow_m, q_wrapped_, sample_bound_m, &site_kin_)
+                                           : site_gap_m(p, site_q2_, sample_grow_m, site_q_, sample_bound_m);
+      const double gap_m = sample_m - reach_m;
       if (tau_s == 0.0) {
         stats_.site_min_gap_m = std::min(stats_.site_min_gap_m, gap_m);
         // Nothing either can do within the horizon closes a gap this wide.
@@ -1608,12 +1650,16 @@ void Controller::site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) 
       }
       if (gap_m <= margin_m) {
         // Only my motion toward it is stopped: where my way leads apart (as against standing
-        // still, a step on), stopping would keep me in its way.
-        const double probe_s = std::max(tau_s, step_s);
-        for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, probe_s);
-        const double moving_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_);
-        const double still_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, q_wrapped_);
-        if (moving_m > still_m + kSiteApartM) continue;
+        // still, a step on), stopping would keep me in its way. The sample measured one of the
+        // two gaps already, below its bound: at the first, standing; after it, my way a step on
+        // and more, which is the sample's own configuration.
+        const double known_m = sample_m < sample_bound_m ? sample_m : kNaN;
+        if (tau_s == 0.0) {
+          for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, step_s);
+          if (site_leads_apart(p, site_q2_, sample_grow_m, site_q_, kNaN, q_wrapped_, known_m)) continue;
+        } else if (site_leads_apart(p, site_q2_, sample_grow_m, site_q_, known_m, q_wrapped_, kNaN)) {
+          continue;
+        }
         meet_s = tau_s;
         break;
       }
