@@ -1347,7 +1347,12 @@ double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& pee
   p.model->forward_kinematics(peer_q, p.kinematics);
   if (me != nullptr && std::isfinite(bound_m)) {
     const double apart_m = site_apart_m(p, *me, grow_m);
-    if (apart_m >= bound_m) return apart_m;
+    if (apart_m >= bound_m) {
+      // What the query would have found: nothing below the bound.
+      p.nearest = planning::CollisionWorld::NearestBelow{};
+      p.nearest.dynamic_obstacle.distance_m = bound_m;
+      return apart_m;
+    }
   }
   site_pose_meet(p, grow_m);
   p.nearest = p.meet_world->nearest_below(my_q, planning::CollisionWorld::Bodies::All, 0.0, bound_m, &p.nearest);
@@ -1637,11 +1642,13 @@ void Controller::site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) 
       const double reach_m = my_reach_at(tau_s);
       const double matters_m = tau_s == 0.0 ? margin_m + horizon_s * (my_bound_m_s + p.max_point_speed_m_s) + my_reach_at(horizon_s)
                                             : margin_m + reach_m;
-      // At the first sample I stand where I am: the boxes of my bodies there are compared first.
+      // The world boxes of my bodies, where I stand at the first sample and along my way after it,
+      // are compared first: most samples find the other machine beyond the bound by them alone.
       const double sample_grow_m = grow_m + start_m + 0.5 * between_m;
       const double sample_bound_m = matters_m + kSiteBoundSlackM;
+      if (tau_s > 0.0) model_->forward_kinematics(site_q_, site_way_kin_);
       const double sample_m = tau_s == 0.0 ? site_gap_m(p, site_q2_, sample_grow_m, q_wrapped_, sample_bound_m, &site_kin_)
-                                           : site_gap_m(p, site_q2_, sample_grow_m, site_q_, sample_bound_m);
+                                           : site_gap_m(p, site_q2_, sample_grow_m, site_q_, sample_bound_m, &site_way_kin_);
       const double gap_m = sample_m - reach_m;
       if (tau_s == 0.0) {
         stats_.site_min_gap_m = std::min(stats_.site_min_gap_m, gap_m);

@@ -517,6 +517,7 @@ class Controller {
   planning::JointVector site_q2_;  //!< scratch [rad | m]
   planning::JointVector site_v_;   //!< my velocity as the scan carries it forward [rad/s | m/s]
   planning::Kinematics site_kin_{};  //!< mine at this cycle's position, for the meet scan's box test
+  planning::Kinematics site_way_kin_{};  //!< mine along my way at a later sample of the meet scan, likewise
 };
 
 }  // namespace mgc::firmware
