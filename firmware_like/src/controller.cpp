@@ -1316,37 +1316,49 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
   }
 }
 
-double Controller::site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m) const noexcept {
-  // A body's box in the world: its centre, and |R| times its half extents (a capsule's along z
-  // with its caps), as the collision worlds shape it: mine undilated, the other's grown.
-  const auto world_half = [](const planning::BodyState& b, bool box, double floor_m, double by_m) {
+double Controller::site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m, double bound_m) const noexcept {
+  // A body's box in its own axes: half extents (a capsule's along z with its caps), as the
+  // collision worlds shape it: mine undilated, the other's grown.
+  const auto body_half = [](const planning::BodyState& b, bool box, double floor_m, double by_m) {
     const Eigen::Vector3d size = b.size_m.cwiseMax(Eigen::Vector3d::Constant(floor_m));
-    const Eigen::Vector3d half = box ? Eigen::Vector3d(0.5 * size + Eigen::Vector3d::Constant(by_m))
-                                     : Eigen::Vector3d(0.5 * size.x() + by_m, 0.5 * size.x() + by_m, 0.5 * size.z() + 0.5 * size.x() + by_m);
-    return Eigen::Vector3d(b.world_from_body.linear().cwiseAbs() * half);
+    return box ? Eigen::Vector3d(0.5 * size + Eigen::Vector3d::Constant(by_m))
+               : Eigen::Vector3d(0.5 * size.x() + by_m, 0.5 * size.x() + by_m, 0.5 * size.z() + 0.5 * size.x() + by_m);
   };
-  double least_sq = std::numeric_limits<double>::infinity();
+  double least_m = std::numeric_limits<double>::infinity();
   const std::size_t mine = model_->bodies().size();
   for (const int pb : p.moving_bodies) {
     const auto b = static_cast<std::size_t>(pb);
     const planning::BodyState& other = p.kinematics.bodies[b];
-    const Eigen::Vector3d other_half = world_half(other, p.model->bodies()[b].shape == planning::BodyShape::Box, 0.01, grow_m);
+    const Eigen::Matrix3d& other_r = other.world_from_body.linear();
+    const Eigen::Vector3d other_half = body_half(other, p.model->bodies()[b].shape == planning::BodyShape::Box, 0.01, grow_m);
+    const Eigen::Vector3d other_world_half = other_r.cwiseAbs() * other_half;
     for (std::size_t k = 0; k < mine; ++k) {
       const planning::BodyState& body = me.bodies[k];
-      const Eigen::Vector3d half = world_half(body, model_->bodies()[k].shape == planning::BodyShape::Box, 0.0, 0.0);
-      const Eigen::Vector3d apart = ((other.world_from_body.translation() - body.world_from_body.translation()).cwiseAbs() - half - other_half)
-                                        .cwiseMax(0.0);
-      least_sq = std::min(least_sq, apart.squaredNorm());
+      const Eigen::Matrix3d& r = body.world_from_body.linear();
+      const Eigen::Vector3d half = body_half(body, model_->bodies()[k].shape == planning::BodyShape::Box, 0.0, 0.0);
+      const Eigen::Vector3d d = other.world_from_body.translation() - body.world_from_body.translation();
+      // The world boxes round the two: the distance between them.
+      double gap_m = (d.cwiseAbs() - r.cwiseAbs() * half - other_world_half).cwiseMax(0.0).norm();
+      if (gap_m < bound_m) {
+        // The two boxes' projections on each one's face normals: each a gap no point pair beats,
+        // and a slanted boom's own box is far tighter than its world box.
+        const Eigen::Matrix3d m = (r.transpose() * other_r).cwiseAbs();
+        const Eigen::Vector3d in_mine = (r.transpose() * d).cwiseAbs() - half - m * other_half;
+        const Eigen::Vector3d in_other = (other_r.transpose() * d).cwiseAbs() - other_half - m.transpose() * half;
+        gap_m = std::max({gap_m, in_mine.maxCoeff(), in_other.maxCoeff()});
+        if (gap_m < bound_m) return gap_m;
+      }
+      least_m = std::min(least_m, gap_m);
     }
   }
-  return std::sqrt(least_sq);
+  return least_m;
 }
 
 double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
                               const planning::JointVector& my_q, double bound_m, const planning::Kinematics* me) noexcept {
   p.model->forward_kinematics(peer_q, p.kinematics);
   if (me != nullptr && std::isfinite(bound_m)) {
-    const double apart_m = site_apart_m(p, *me, grow_m);
+    const double apart_m = site_apart_m(p, *me, grow_m, bound_m);
     if (apart_m >= bound_m) {
       // What the query would have found: nothing below the bound.
       p.nearest = planning::CollisionWorld::NearestBelow{};

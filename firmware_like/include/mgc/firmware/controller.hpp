@@ -340,9 +340,13 @@ class Controller {
   [[nodiscard]] bool site_leads_apart(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
                                       const planning::JointVector& moving_q, double moving_known_m,
                                       const planning::JointVector& still_q, double still_known_m) noexcept;
-  //! The least distance between the world boxes of my bodies (me) and of p's moving bodies as posed
-  //! in p.kinematics, each grown by grow_m: never more than the distance between the bodies. [m]
-  [[nodiscard]] double site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m) const noexcept;
+  //! Whether bounding boxes alone show my bodies (me) and p's moving bodies as posed in
+  //! p.kinematics, those grown by grow_m, at least bound_m apart: if so, a lower bound of their
+  //! distance at least bound_m, else a value below it. Per pair the distance between their world
+  //! boxes, and where it is below the bound the larger of it and their own boxes' gap along each
+  //! one's face normals. [m]
+  [[nodiscard]] double site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m,
+                                    double bound_m) const noexcept;
   //! The other machines in the planning and escape worlds, from the cycle's inputs: a higher-priority
   //! machine at its pose and along its plan, a lower one parked, a stale one at its grown frozen pose.
   void site_pose_worlds(const SiteInputs& in) noexcept;
