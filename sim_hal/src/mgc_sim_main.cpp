@@ -11,10 +11,12 @@
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cinttypes>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -35,6 +37,7 @@
 #include "mgc/sim/simulator.hpp"
 #include "mgc/sim/site_simulation.hpp"
 #include "mgc/sim/truth_monitor.hpp"
+#include "mgc/sim/truth_snapshot.hpp"
 #include "mgc/tools/cli_checks.hpp"
 
 namespace {
@@ -183,8 +186,8 @@ class TruthLog {
   }
 
   //! Formats the row and queues it for the writer thread. No allocation, no I/O.
-  void write(const mgc::sim::Simulator& sim, std::size_t num_obstacles) noexcept {
-    const mgc::sim::TrueState& t = sim.truth();
+  void write(const mgc::sim::TruthSnapshot& snapshot) noexcept {
+    const mgc::sim::TrueState& t = snapshot.truth;
     length_ = 0;
     fits_ = true;
     put(std::snprintf(at(), room(), "%.4f", t.t_s));
@@ -193,8 +196,7 @@ class TruthLog {
       put(std::snprintf(at(), room(), ",%.6f,%.6f,%.4f", t.position[j] * scale, t.velocity[j] * scale, t.spool[j]));
     }
     put(std::snprintf(at(), room(), ",%d,%d", static_cast<int>(t.valve_state), static_cast<int>(t.valve_reason)));
-    for (std::size_t i = 0; i < num_obstacles; ++i) {
-      const Eigen::Isometry3d pose = sim.obstacle_pose(i);
+    for (const Eigen::Isometry3d& pose : snapshot.obstacle_poses) {
       const double yaw = std::atan2(pose.linear()(1, 0), pose.linear()(0, 0));
       const Eigen::Vector3d& p = pose.translation();
       put(std::snprintf(at(), room(), ",%.4f,%.4f,%.4f,%.4f", p.x(), p.y(), p.z(), yaw * 180.0 / std::numbers::pi));
@@ -275,6 +277,31 @@ MemoryLock lock_memory() {
   prefault_stack();
   return lock;
 }
+
+//! Frames of true state the loop can hand to its observer before it must drop one: 5 s of truth
+//! log rows at the default 10 ms, far longer than any stall of a CPU seen on a shared VM. [-]
+constexpr std::size_t kTruthFrames = 512;
+
+//! When the truth monitor is due, on the loop's side: the monitor's own grid (TruthMonitor), so
+//! that every frame handed over for a sample is one it takes.
+class TruthGrid {
+ public:
+  //! period_s 0: never due.
+  explicit TruthGrid(double period_s) noexcept : period_s_(period_s) {}
+  //! Whether a sample is due at simulation time t_s; if so, the grid moves on.
+  bool due(double t_s) noexcept {
+    // As the monitor's: a sample due at 0.05 s must not wait a physics step for a rounding error.
+    constexpr double kTimeSlackS = 1e-9;
+    if (period_s_ <= 0.0 || t_s < next_t_s_ - kTimeSlackS) return false;
+    next_t_s_ = std::isfinite(next_t_s_) ? next_t_s_ + period_s_ : t_s + period_s_;
+    if (next_t_s_ <= t_s) next_t_s_ = t_s + period_s_;
+    return true;
+  }
+
+ private:
+  double period_s_;
+  double next_t_s_ = -std::numeric_limits<double>::infinity();
+};
 
 //! The work of one loop iteration, phase by phase: the simulator's step (reading the bus,
 //! answering, the physics), the truth monitor's sample and the truth log's row. Plain maxima and
@@ -403,20 +430,33 @@ int run_whole_site(const mgc::planning::Site& site, const mgc::sim::SimConfig& c
   }
   const std::int64_t start_us = clock.now_us();
   const std::int64_t end_us = o.duration_s > 0.0 ? start_us + static_cast<std::int64_t>(o.duration_s * 1e6) : INT64_MAX;
+  mgc::sim::TruthFrameRing frames(kTruthFrames, site_sim.make_frame());
+  TruthGrid monitor_grid(site_sim.monitor_period_s());
   mgc::sim::RealtimeLoop loop(clock, buses,
                               {.threads = o.loop_threads, .sync_period_us = sync_period_us, .stale_after_us = stale_after_us});
+  const auto observe = [&] {
+    while (const mgc::sim::TruthFrame* frame = frames.front()) {
+      const std::int64_t before_us = clock.now_us();
+      if (site_sim.sample(*frame)) timing.truth_sample(clock.now_us() - before_us, frame->machines.front().truth.t_s);
+      frames.pop();
+    }
+  };
   loop.run(
       [&](std::int64_t now_us) -> std::int64_t {
         site_sim.step(now_us);
         timing.step(clock.now_us() - now_us, site_sim.time_s());
-        if (monitor_config) {
-          const std::int64_t before_us = clock.now_us();
-          if (site_sim.sample()) timing.truth_sample(clock.now_us() - before_us, site_sim.time_s());
+        if (monitor_config && monitor_grid.due(site_sim.time_s())) {
+          if (mgc::sim::TruthFrame* frame = frames.begin_push()) {
+            site_sim.capture(*frame);
+            frame->monitor_due = true;
+            frames.end_push();
+          }
         }
         if (now_us >= end_us) return -1;
         return std::min(site_sim.next_event_us(), end_us);
       },
-      g_stop);
+      observe, g_stop);
+  observe();
   if (!o.quiet) {
     for (std::size_t i = 0; i < site_sim.size(); ++i) {
       const mgc::sim::Simulator& sim = site_sim.simulator(i);
@@ -430,6 +470,7 @@ int run_whole_site(const mgc::planning::Site& site, const mgc::sim::SimConfig& c
   }
   std::string timing_line = "timing: " + loop.line() + "; " + timing.line();
   timing_line += locked.locked ? "; memory locked" : "; memory not locked";
+  if (frames.dropped() > 0) timing_line += "; " + std::to_string(frames.dropped()) + " truth frames lost (the observer fell behind)";
   std::printf("mgc-sim: %s\n", timing_line.c_str());
   if (monitor_config) {
     // One line per machine against the site, then the one between the machines: the run's referee,
@@ -616,23 +657,47 @@ int main(int argc, char** argv) {
     const std::int64_t start_us = clock.now_us();
     const std::int64_t end_us = duration_s > 0.0 ? start_us + static_cast<std::int64_t>(duration_s * 1e6) : INT64_MAX;
     std::int64_t next_log_us = start_us;
+    // The state is copied in the loop and measured and logged outside its lock (TruthFrameRing).
+    mgc::sim::TruthFrame prototype;
+    prototype.machines.resize(1);
+    prototype.machines[0].resize_for(sim);
+    mgc::sim::TruthFrameRing frames(kTruthFrames, prototype);
+    TruthGrid monitor_grid(monitor ? monitor->config().period_s : 0.0);
     mgc::sim::RealtimeLoop loop(clock, *opened.bus,
                                 {.threads = loop_threads,
                                  .sync_period_us = sim.plan().timing.sync_period_us,
                                  .stale_after_us = sim.plan().timing.encoder_stale_after_us});
+    const auto observe = [&] {
+      while (const mgc::sim::TruthFrame* frame = frames.front()) {
+        // The sample before the log row, so that the row's clearance columns are never older than
+        // a monitor period.
+        if (frame->monitor_due) {
+          const std::int64_t before_us = clock.now_us();
+          if (monitor->sample(frame->machines[0])) timing.truth_sample(clock.now_us() - before_us, frame->machines[0].truth.t_s);
+        }
+        if (frame->log_due) {
+          const std::int64_t before_us = clock.now_us();
+          log->write(frame->machines[0]);
+          timing.log_row(clock.now_us() - before_us);
+        }
+        frames.pop();
+      }
+    };
     loop.run(
         [&](std::int64_t now_us) -> std::int64_t {
           sim.step(now_us);
           timing.step(clock.now_us() - now_us, sim.time_s());
-          // Before the log row, so that its clearance columns are never older than a monitor period.
-          if (monitor) {
-            const std::int64_t before_us = clock.now_us();
-            if (monitor->sample(sim)) timing.truth_sample(clock.now_us() - before_us, sim.time_s());
+          const bool monitor_due = monitor && monitor_grid.due(sim.time_s());
+          const bool log_due = log && now_us >= next_log_us;
+          if (monitor_due || log_due) {
+            if (mgc::sim::TruthFrame* frame = frames.begin_push()) {
+              frame->machines[0].capture(sim);
+              frame->monitor_due = monitor_due;
+              frame->log_due = log_due;
+              frames.end_push();
+            }
           }
-          if (log && now_us >= next_log_us) {
-            const std::int64_t before_us = clock.now_us();
-            log->write(sim, scenario.dynamic_obstacles.size());
-            timing.log_row(clock.now_us() - before_us);
+          if (log_due) {
             next_log_us += log_period_us;
             if (next_log_us <= now_us) next_log_us = now_us + log_period_us;
           }
@@ -641,7 +706,8 @@ int main(int argc, char** argv) {
           if (log) next_us = std::min(next_us, next_log_us);
           return next_us;
         },
-        g_stop);
+        observe, g_stop);
+    observe();
     std::string log_error;
     if (log) log_error = log->close();
     if (!quiet) {
@@ -656,6 +722,7 @@ int main(int argc, char** argv) {
     // With --quiet too: a late answer to a SYNC is the first thing to rule out when mgc faults.
     std::string timing_line = "timing: " + loop.line() + "; " + timing.line();
     timing_line += locked.locked ? "; memory locked" : "; memory not locked";
+    if (frames.dropped() > 0) timing_line += "; " + std::to_string(frames.dropped()) + " truth frames lost (the observer fell behind)";
     if (log && log->dropped() > 0) timing_line += "; truth log: " + std::to_string(log->dropped()) + " rows lost";
     std::printf("mgc-sim: %s\n", timing_line.c_str());
     // The run's referee: printed with --quiet too, it is what the demo's summary quotes.

@@ -54,6 +54,7 @@ SiteSimulation::SiteSimulation(const planning::Site& site, std::span<hal::CanBus
     c.seed = config.seed + i;
     sims_.push_back(std::make_unique<Simulator>(*scenarios_.back(), *buses[i], c));
     truths_.push_back(&sims_.back()->truth());
+    frame_truths_.push_back(&sims_.back()->truth());
     if (monitor) monitors_.push_back(std::make_unique<TruthMonitor>(*scenarios_.back(), *monitor));
   }
   std::vector<Simulator*> sims;
@@ -74,10 +75,33 @@ void SiteSimulation::step(std::int64_t now_us) noexcept {
 bool SiteSimulation::sample() noexcept {
   bool measured = false;
   for (std::size_t i = 0; i < monitors_.size(); ++i) measured = monitors_[i]->sample(*sims_[i]) || measured;
-  if (!referee_) return measured;
-  const double t_s = time_s();
-  if (next_sample_t_s_ >= 0.0 && t_s < next_sample_t_s_ - kTimeSlack_s) return measured;
-  referee_->measure(t_s, truths_);
+  return referee_sample(truths_) || measured;
+}
+
+TruthFrame SiteSimulation::make_frame() const {
+  TruthFrame frame;
+  frame.machines.resize(sims_.size());
+  for (std::size_t i = 0; i < sims_.size(); ++i) frame.machines[i].resize_for(*sims_[i]);
+  return frame;
+}
+
+void SiteSimulation::capture(TruthFrame& frame) const noexcept {
+  for (std::size_t i = 0; i < std::min(sims_.size(), frame.machines.size()); ++i) frame.machines[i].capture(*sims_[i]);
+}
+
+bool SiteSimulation::sample(const TruthFrame& frame) noexcept {
+  if (frame.machines.size() != sims_.size()) return false;
+  bool measured = false;
+  for (std::size_t i = 0; i < monitors_.size(); ++i) measured = monitors_[i]->sample(frame.machines[i]) || measured;
+  for (std::size_t i = 0; i < frame_truths_.size(); ++i) frame_truths_[i] = &frame.machines[i].truth;
+  return referee_sample(frame_truths_) || measured;
+}
+
+bool SiteSimulation::referee_sample(std::span<const TrueState* const> truths) noexcept {
+  if (!referee_ || truths.empty()) return false;
+  const double t_s = truths.front()->t_s;
+  if (next_sample_t_s_ >= 0.0 && t_s < next_sample_t_s_ - kTimeSlack_s) return false;
+  referee_->measure(t_s, truths);
   // On the period's grid while the loop keeps up; from now on when it fell behind by a period.
   next_sample_t_s_ = next_sample_t_s_ < 0.0 ? t_s + period_s_ : next_sample_t_s_ + period_s_;
   if (next_sample_t_s_ <= t_s) next_sample_t_s_ = t_s + period_s_;

@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mgc/sim/truth_monitor.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
 #include <stdexcept>
 
 #include "mgc/sim/simulator.hpp"
+#include "mgc/sim/truth_snapshot.hpp"
 
 namespace mgc::sim {
 
@@ -90,17 +92,29 @@ TruthMonitor::TruthMonitor(const planning::Scenario& scenario, TruthMonitorConfi
 
 TruthMonitor::~TruthMonitor() = default;
 
+bool TruthMonitor::due(double t_s) const noexcept { return t_s >= next_sample_t_s_ - kTimeSlackS; }
+
 bool TruthMonitor::sample(const Simulator& sim) noexcept {
-  const TrueState& truth = sim.truth();
-  if (truth.t_s < next_sample_t_s_ - kTimeSlackS) return false;
+  if (!due(sim.truth().t_s)) return false;
   for (std::size_t i = 0; i < num_dynamic_; ++i) set_obstacle_pose(i, sim.obstacle_pose(i));
+  sample_truth(sim.truth());
+  return true;
+}
+
+bool TruthMonitor::sample(const TruthSnapshot& snapshot) noexcept {
+  if (!due(snapshot.truth.t_s)) return false;
+  for (std::size_t i = 0; i < std::min(num_dynamic_, snapshot.obstacle_poses.size()); ++i) set_obstacle_pose(i, snapshot.obstacle_poses[i]);
+  sample_truth(snapshot.truth);
+  return true;
+}
+
+void TruthMonitor::sample_truth(const TrueState& truth) noexcept {
   planning::JointVector q(model_->dof());
   for (int j = 0; j < model_->dof(); ++j) q[j] = truth.position[static_cast<std::size_t>(j)];
   (void)measure(truth.t_s, q);
   // On the period's grid while the caller keeps up; from now on when it fell behind by a period.
   next_sample_t_s_ = std::isfinite(next_sample_t_s_) ? next_sample_t_s_ + config_.period_s : truth.t_s + config_.period_s;
   if (next_sample_t_s_ <= truth.t_s) next_sample_t_s_ = truth.t_s + config_.period_s;
-  return true;
 }
 
 void TruthMonitor::set_obstacle_pose(std::size_t i, const Eigen::Isometry3d& world_from_obstacle) noexcept {

@@ -8,6 +8,7 @@
 
 #include "allocation_counter.hpp"
 #include "mgc/sim/truth_monitor.hpp"
+#include "mgc/sim/truth_snapshot.hpp"
 #include "sim_rig.hpp"
 
 using namespace mgc;
@@ -52,4 +53,23 @@ TEST_CASE("the truth monitor's samples do not allocate", "[unit][sim][truth]") {
   }
   CHECK(test::allocation_count() == before);
   CHECK(taken == 20);  // 1 s at one sample per 50 ms
+
+  // mgc-sim's way: the state copied into a frame of a ring, measured from the copy.
+  sim::TruthFrame prototype;
+  prototype.machines.resize(1);
+  prototype.machines[0].resize_for(*rig.sim);
+  sim::TruthFrameRing frames(4, prototype);
+  const long before_frames = test::allocation_count();
+  taken = 0;
+  for (int i = 0; i < 100; ++i) {
+    rig.run(10'000);
+    sim::TruthFrame* frame = frames.begin_push();
+    REQUIRE(frame != nullptr);
+    frame->machines[0].capture(*rig.sim);
+    frames.end_push();
+    taken += monitor.sample(frames.front()->machines[0]) ? 1U : 0U;
+    frames.pop();
+  }
+  CHECK(test::allocation_count() == before_frames);
+  CHECK(taken == 20);
 }

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -12,7 +13,12 @@
 #include "sim_rig.hpp"
 
 #include "mgc/guidance/envelope.hpp"
+#include "mgc/hal/can_bus.hpp"
+#include "mgc/hal/clock.hpp"
+#include "mgc/planning/io/site_loader.hpp"
+#include "mgc/sim/site_simulation.hpp"
 #include "mgc/sim/truth_monitor.hpp"
+#include "mgc/sim/truth_snapshot.hpp"
 
 using namespace mgc;
 
@@ -193,6 +199,64 @@ TEST_CASE("the truth monitor samples the simulator once a period at the true sta
   const planning::Clearance dynamic =
       ref.world->clearance(q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic);
   CHECK(monitor.last().dynamic_clearance.distance_m == Approx(dynamic.distance_m).margin(1e-9));
+}
+
+TEST_CASE("a copy of the simulator's state is measured as the simulator itself is", "[unit][sim][truth]") {
+  sim::SimConfig config = test::SimRig::quiet_config();
+  config.scenario_time_offset_s = 60.0;  // crane 2 swinging: its pose changes from sample to sample
+  test::SimRig rig("thesis-steel-frame.yaml", config, "truth-snapshot");
+  sim::TruthMonitor live(rig.scenario);
+  sim::TruthMonitor copied(rig.scenario);
+  sim::TruthSnapshot snapshot;
+  snapshot.resize_for(*rig.sim);
+  REQUIRE(snapshot.obstacle_poses.size() == rig.scenario.dynamic_obstacles.size());
+  rig.start();
+  rig.command[0] = 0.4;  // swinging, so that the joints change too
+  int taken = 0;
+  for (int i = 0; i < 200; ++i) {
+    rig.run(10'000);
+    snapshot.capture(*rig.sim);
+    const bool a = live.sample(*rig.sim);
+    const bool b = copied.sample(snapshot);
+    CHECK(a == b);
+    taken += a ? 1 : 0;
+    CHECK(copied.last().clearance.distance_m == live.last().clearance.distance_m);
+    CHECK(copied.last().dynamic_clearance.distance_m == live.last().dynamic_clearance.distance_m);
+  }
+  CHECK(taken == 40);  // 2 s at one sample per 50 ms
+  CHECK(copied.summary_line() == live.summary_line());
+}
+
+TEST_CASE("a site's monitors and pair referee measure a captured frame as they measure the simulators", "[unit][sim][truth]") {
+  const planning::Site site = planning::io::load_site(std::string(MGC_SOURCE_DIR) + "/scenarios/sites/thesis-steel-frame.yaml");
+  hal::ManualClock clock(1'000'000);
+  auto a1 = hal::open_can_bus("loop:truth-frame-a1", &clock);
+  auto a2 = hal::open_can_bus("loop:truth-frame-a2", &clock);
+  auto b1 = hal::open_can_bus("loop:truth-frame-b1", &clock);
+  auto b2 = hal::open_can_bus("loop:truth-frame-b2", &clock);
+  REQUIRE((a1 && a2 && b1 && b2));
+  const std::array<hal::CanBus*, 2> a_buses{a1.bus.get(), a2.bus.get()};
+  const std::array<hal::CanBus*, 2> b_buses{b1.bus.get(), b2.bus.get()};
+  const sim::TruthMonitorConfig monitor{.period_s = 0.05, .clearance_margin_m = 0.5};
+  sim::SiteSimulation live(site, a_buses, sim::SimConfig{}, monitor);
+  sim::SiteSimulation copied(site, b_buses, sim::SimConfig{}, monitor);
+  sim::TruthFrame frame = copied.make_frame();
+  REQUIRE(frame.machines.size() == 2);
+  CHECK(copied.monitor_period_s() == 0.05);
+  int taken = 0;
+  for (std::int64_t t = 1'000'000; t <= 2'000'000; t += 1'000) {
+    clock.set_us(t);
+    live.step(t);
+    copied.step(t);
+    copied.capture(frame);
+    const bool a = live.sample();
+    const bool b = copied.sample(frame);
+    CHECK(a == b);
+    taken += a ? 1 : 0;
+  }
+  CHECK(taken == 21);  // 0, 0.05, ..., 1.00 s
+  for (std::size_t i = 0; i < 2; ++i) CHECK(copied.monitor(i)->summary_line() == live.monitor(i)->summary_line());
+  CHECK(copied.referee()->summary_line() == live.referee()->summary_line());
 }
 
 TEST_CASE("the truth monitor refuses a negative period", "[unit][sim][truth]") {

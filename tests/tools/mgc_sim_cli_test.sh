@@ -78,7 +78,7 @@ grep -Eq '^mgc-sim: timing: .*; memory (locked|not locked)$' "$tmp/mlock.sim" ||
 "$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$base,peer=127.0.0.1:$((base + 1))" --duration 0.5 --loop-threads 2 --quiet \
   >"$tmp/threads.sim" 2>&1 || fail "--loop-threads 2: exit $?: $(cat "$tmp/threads.sim")"
 if [ "$(nproc)" -ge 2 ]; then
-  grep -Eq '^mgc-sim: timing: .*wake-up lateness max [0-9.]+ ms \(2 threads: on CPU [0-9]+ [0-9]+ iterations, lateness max [0-9.]+ ms, [0-9]+ wake-ups over the SYNC period, lock wait max [0-9.]+ ms; on CPU [0-9]+ [0-9]+ iterations, .*\); [0-9]+ major' \
+  grep -Eq '^mgc-sim: timing: .*wake-up lateness max [0-9.]+ ms \(2 threads: on CPU [0-9]+ [0-9]+ iterations, lateness max [0-9.]+ ms, [0-9]+ wake-ups over the SYNC period, lock wait max [0-9.]+ ms, lock held [0-9.]+ % of the run \(max [0-9.]+ ms\); on CPU [0-9]+ [0-9]+ iterations, .*\); [0-9]+ major' \
     "$tmp/threads.sim" || fail "--loop-threads 2: $(cat "$tmp/threads.sim")"
 fi
 # A truth log that cannot be written to the end: exit 1, naming the file and the reason.

@@ -58,31 +58,41 @@ struct LoopThreadStats {
   std::int64_t max_late_us = 0;    //!< its longest wake-up after the due time [us]
   std::uint64_t wakeups_over_sync = 0;  //!< wake-ups later than a SYNC period
   std::int64_t max_lock_wait_us = 0;    //!< its longest wait for the other thread's iteration [us]
+  //! Time it held the lock, in all and at most once: while it holds it, no other thread can answer. [us]
+  std::int64_t lock_held_us = 0;
+  std::int64_t max_lock_held_us = 0;
   long major_faults = 0;           //!< page faults it took in the loop
   long minor_faults = 0;
 };
 
 struct RealtimeLoopConfig {
   //! Threads that run the loop; fewer when the process may run on fewer CPUs. With more than one,
-  //! each is pinned to a CPU of its own and all wait for the same events. [-]
+  //! each is pinned to a CPU of its own, the first waits for the events and the others stand by. [-]
   std::size_t threads = 1;
   std::int64_t sync_period_us = 10'000;  //!< the bus's SYNC period [us]
   std::int64_t stale_after_us = 30'000;  //!< the controller's staleness limit for an answer [us]
 };
 
 //! Runs an iteration function in real time on a bus, or on several (the machines of a site in one
-//! process). Each thread runs an iteration, then waits until the time the iteration asked for or
-//! until a frame arrives on its bus (bus.wait_readable; with several buses, thread i waits on bus
-//! i modulo their number, and a frame on another bus is seen at the next due time: the simulator's
-//! physics step, 1 ms), and again; the iterations are serialised by one lock, so the function needs no locking of its own,
-//! and the clock is read under that lock, so now_us never goes backwards. With several threads
-//! each waits on its own CPU: when one is not run for a while, another wakes on time and takes
-//! its iterations; the thread that wakes second finds nothing left to do and waits again.
+//! process). The first thread runs an iteration, then waits until the time the iteration asked for
+//! or until a frame arrives on the first bus (bus.wait_readable; a frame on another bus is seen at
+//! the next due time: the simulator's physics step, 1 ms), and again. Every other thread stands by
+//! on a CPU of its own: each millisecond it looks whether an event is overdue by 2 ms, or a frame
+//! has waited a whole millisecond with no iteration begun, and if so runs the iteration itself; so a
+//! first thread that is not run for a while (its CPU taken away) is covered within about 3 ms, and
+//! otherwise the standby takes no lock. The iterations are serialised by one lock, so the function
+//! needs no locking of its own, and the clock is read under that lock, so now_us never goes
+//! backwards. What is slow and may wait (measuring, formatting) belongs in the observation, which
+//! runs outside that lock: a thread stalled there holds up no iteration.
 class RealtimeLoop {
  public:
   //! Called under the lock with the time read under it. Returns the time of the next event it
   //! needs [us], or a negative value to stop the loop. Must not block.
   using Iteration = std::function<std::int64_t(std::int64_t now_us)>;
+  //! Called after an iteration, outside its lock, by one thread at a time (a thread that finds
+  //! another observing goes on without): work on what the iterations handed over (copies of their
+  //! state) that must not hold them up. Must not block.
+  using Observation = std::function<void()>;
   static constexpr std::size_t kMaxThreads = 8;
 
   //! Throws std::invalid_argument for no thread, more than kMaxThreads, or periods not positive.
@@ -95,6 +105,9 @@ class RealtimeLoop {
   //! Starting the threads allocates; the loop does not. Throws std::system_error when a thread
   //! cannot be started.
   void run(const Iteration& iteration, const std::atomic<bool>& stop);
+  //! The same with an observation after the iterations (see Observation). After the run the caller
+  //! observes what the last iterations left.
+  void run(const Iteration& iteration, const Observation& observe, const std::atomic<bool>& stop);
 
   //! Threads that ran (the configured number, or the CPUs the process may use if fewer).
   [[nodiscard]] std::size_t threads() const noexcept { return threads_; }
@@ -108,7 +121,7 @@ class RealtimeLoop {
   [[nodiscard]] std::string line() const;
 
  private:
-  void thread_main(std::size_t index, const Iteration& iteration, const std::atomic<bool>& stop) noexcept;
+  void thread_main(std::size_t index, const Iteration& iteration, const Observation& observe, const std::atomic<bool>& stop) noexcept;
 
   const hal::Clock& clock_;
   std::vector<hal::CanBus*> buses_;
@@ -118,8 +131,12 @@ class RealtimeLoop {
   std::array<LoopThreadStats, kMaxThreads> stats_{};
   IterationGaps gaps_;
   std::mutex mutex_;  //!< held by the thread running an iteration
+  std::mutex observe_mutex_;  //!< held by the thread observing
   std::int64_t start_us_ = 0;
+  std::int64_t end_us_ = 0;
   std::atomic<bool> done_{false};
+  std::atomic<std::int64_t> next_due_us_{0};  //!< the event the last iteration asked for [us]
+  std::atomic<std::uint64_t> started_{0};     //!< iterations begun, by any thread
 };
 
 }  // namespace mgc::sim

@@ -126,6 +126,7 @@ class Simulator {
   [[nodiscard]] std::int64_t next_event_us() const noexcept;
 
   [[nodiscard]] const TrueState& truth() const noexcept { return truth_; }
+  [[nodiscard]] const planning::Scenario& scenario() const noexcept { return scenario_; }
   [[nodiscard]] const SimCounters& counters() const noexcept { return counters_; }
   [[nodiscard]] const hal::BusPlan& plan() const noexcept { return plan_; }
   [[nodiscard]] const SimConfig& config() const noexcept { return config_; }

@@ -21,6 +21,7 @@
 #include "mgc/sim/simulator.hpp"
 #include "mgc/sim/site_referee.hpp"
 #include "mgc/sim/truth_monitor.hpp"
+#include "mgc/sim/truth_snapshot.hpp"
 
 namespace mgc::sim {
 
@@ -50,6 +51,15 @@ class SiteSimulation {
   //! Samples every machine's monitor and the pair referee when a monitor period has passed since
   //! the last sample (the first call always samples). Returns whether it measured. No allocation.
   bool sample() noexcept;
+  //! A frame with room for every machine's snapshot. Allocates: before the loop.
+  [[nodiscard]] TruthFrame make_frame() const;
+  //! Copies every machine's state now into frame.machines (sized by make_frame()). No allocation.
+  void capture(TruthFrame& frame) const noexcept;
+  //! sample() for a frame capture() filled: the monitors and the referee measure the copy, so
+  //! that mgc-sim measures outside its loop's lock. No allocation.
+  bool sample(const TruthFrame& frame) noexcept;
+  //! The monitor's period; 0 without a monitor. [s]
+  [[nodiscard]] double monitor_period_s() const noexcept { return period_s_; }
   //! The earliest next event of any machine. [µs]
   [[nodiscard]] std::int64_t next_event_us() const noexcept;
   //! Simulation time, the same for every machine (all take their first step together). [s]
@@ -64,6 +74,9 @@ class SiteSimulation {
   [[nodiscard]] const SitePairReferee* referee() const noexcept { return referee_.get(); }
 
  private:
+  //! The pair referee's sample of these states when its period has passed. Returns whether it measured.
+  bool referee_sample(std::span<const TrueState* const> truths) noexcept;
+
   std::vector<std::int32_t> ids_;
   std::vector<std::unique_ptr<planning::Scenario>> scenarios_;  //!< each simulator keeps a reference
   std::vector<std::unique_ptr<Simulator>> sims_;
@@ -71,6 +84,7 @@ class SiteSimulation {
   std::vector<std::unique_ptr<TruthMonitor>> monitors_;
   std::unique_ptr<SitePairReferee> referee_;
   std::vector<const TrueState*> truths_;
+  std::vector<const TrueState*> frame_truths_;  //!< sample(frame)'s, into the frame
   double period_s_ = 0.0;
   double next_sample_t_s_ = -1.0;  //!< negative: not sampled yet
 };

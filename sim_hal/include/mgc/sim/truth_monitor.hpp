@@ -18,6 +18,8 @@
 namespace mgc::sim {
 
 class Simulator;
+struct TrueState;
+struct TruthSnapshot;
 
 struct TruthMonitorConfig {
   //! Least simulation time between two samples: an FCL distance pass over a steel frame costs
@@ -114,6 +116,8 @@ class TruthMonitor {
   //! Measures the simulator's true state if a period has passed since the last sample (the first
   //! call always measures). Returns whether it measured. No allocation.
   bool sample(const Simulator& sim) noexcept;
+  //! The same for a copy of a simulator's state (mgc-sim measures outside its loop's lock).
+  bool sample(const TruthSnapshot& snapshot) noexcept;
 
   //! Places dynamic obstacle i (scenario order) for the next measure(). No allocation.
   void set_obstacle_pose(std::size_t i, const Eigen::Isometry3d& world_from_obstacle) noexcept;
@@ -164,6 +168,10 @@ class TruthMonitor {
   const planning::MobileCrane* crane_ = nullptr;
   double chart_load_lb_ = 0.0;  //!< [lb]
   planning::Kinematics kinematics_{};  //!< a member: forward kinematics fill it at every sample
+  //! A period has passed since the last sample at simulation time t_s (or none was taken).
+  [[nodiscard]] bool due(double t_s) const noexcept;
+  //! Measures the true joints and moves the sampling grid on.
+  void sample_truth(const TrueState& truth) noexcept;
   double next_sample_t_s_ = -std::numeric_limits<double>::infinity();
   TruthSample last_{};
   TruthSummary summary_{};
