@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -1315,39 +1316,62 @@ void Controller::fill_snapshot(const hal::SensorSnapshot& s, const guidance::Sup
   }
 }
 
-double Controller::site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m) const noexcept {
-  // A body's box in the world: its centre, and |R| times its half extents (a capsule's along z
-  // with its caps), as the collision worlds shape it: mine undilated, the other's grown.
-  const auto world_half = [](const planning::BodyState& b, bool box, double floor_m, double by_m) {
+double Controller::site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m, double bound_m) const noexcept {
+  // A body's box in its own axes: half extents (a capsule's along z with its caps), as the
+  // collision worlds shape it: mine undilated, the other's grown.
+  const auto body_half = [](const planning::BodyState& b, bool box, double floor_m, double by_m) {
     const Eigen::Vector3d size = b.size_m.cwiseMax(Eigen::Vector3d::Constant(floor_m));
-    const Eigen::Vector3d half = box ? Eigen::Vector3d(0.5 * size + Eigen::Vector3d::Constant(by_m))
-                                     : Eigen::Vector3d(0.5 * size.x() + by_m, 0.5 * size.x() + by_m, 0.5 * size.z() + 0.5 * size.x() + by_m);
-    return Eigen::Vector3d(b.world_from_body.linear().cwiseAbs() * half);
+    return box ? Eigen::Vector3d(0.5 * size + Eigen::Vector3d::Constant(by_m))
+               : Eigen::Vector3d(0.5 * size.x() + by_m, 0.5 * size.x() + by_m, 0.5 * size.z() + 0.5 * size.x() + by_m);
   };
-  double least_sq = std::numeric_limits<double>::infinity();
+  double least_m = std::numeric_limits<double>::infinity();
   const std::size_t mine = model_->bodies().size();
   for (const int pb : p.moving_bodies) {
     const auto b = static_cast<std::size_t>(pb);
     const planning::BodyState& other = p.kinematics.bodies[b];
-    const Eigen::Vector3d other_half = world_half(other, p.model->bodies()[b].shape == planning::BodyShape::Box, 0.01, grow_m);
+    const Eigen::Matrix3d& other_r = other.world_from_body.linear();
+    const Eigen::Vector3d other_half = body_half(other, p.model->bodies()[b].shape == planning::BodyShape::Box, 0.01, grow_m);
+    const Eigen::Vector3d other_world_half = other_r.cwiseAbs() * other_half;
     for (std::size_t k = 0; k < mine; ++k) {
       const planning::BodyState& body = me.bodies[k];
-      const Eigen::Vector3d half = world_half(body, model_->bodies()[k].shape == planning::BodyShape::Box, 0.0, 0.0);
-      const Eigen::Vector3d apart = ((other.world_from_body.translation() - body.world_from_body.translation()).cwiseAbs() - half - other_half)
-                                        .cwiseMax(0.0);
-      least_sq = std::min(least_sq, apart.squaredNorm());
+      const Eigen::Matrix3d& r = body.world_from_body.linear();
+      const Eigen::Vector3d half = body_half(body, model_->bodies()[k].shape == planning::BodyShape::Box, 0.0, 0.0);
+      const Eigen::Vector3d d = other.world_from_body.translation() - body.world_from_body.translation();
+      // The world boxes round the two: the distance between them.
+      double gap_m = (d.cwiseAbs() - r.cwiseAbs() * half - other_world_half).cwiseMax(0.0).norm();
+      if (gap_m < bound_m) {
+        // The two boxes' projections on each one's face normals: each a gap no point pair beats,
+        // and a slanted boom's own box is far tighter than its world box.
+        const Eigen::Matrix3d m = (r.transpose() * other_r).cwiseAbs();
+        const Eigen::Vector3d in_mine = (r.transpose() * d).cwiseAbs() - half - m * other_half;
+        const Eigen::Vector3d in_other = (other_r.transpose() * d).cwiseAbs() - other_half - m.transpose() * half;
+        gap_m = std::max({gap_m, in_mine.maxCoeff(), in_other.maxCoeff()});
+        if (gap_m < bound_m) return gap_m;
+      }
+      least_m = std::min(least_m, gap_m);
     }
   }
-  return std::sqrt(least_sq);
+  return least_m;
 }
 
 double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
                               const planning::JointVector& my_q, double bound_m, const planning::Kinematics* me) noexcept {
   p.model->forward_kinematics(peer_q, p.kinematics);
   if (me != nullptr && std::isfinite(bound_m)) {
-    const double apart_m = site_apart_m(p, *me, grow_m);
-    if (apart_m >= bound_m) return apart_m;
+    const double apart_m = site_apart_m(p, *me, grow_m, bound_m);
+    if (apart_m >= bound_m) {
+      // What the query would have found: nothing below the bound.
+      p.nearest = planning::CollisionWorld::NearestBelow{};
+      p.nearest.dynamic_obstacle.distance_m = bound_m;
+      return apart_m;
+    }
   }
+  site_pose_meet(p, grow_m);
+  p.nearest = p.meet_world->nearest_below(my_q, planning::CollisionWorld::Bodies::All, 0.0, bound_m, &p.nearest);
+  return p.nearest.dynamic_obstacle.distance_m;
+}
+
+void Controller::site_pose_meet(SitePeerModel& p, double grow_m) noexcept {
   for (std::size_t k = 0; k < p.moving_bodies.size(); ++k) {
     const auto b = static_cast<std::size_t>(p.moving_bodies[k]);
     const planning::BodyState& body = p.kinematics.bodies[b];
@@ -1357,11 +1381,44 @@ double Controller::site_gap_m(SitePeerModel& p, const planning::JointVector& pee
     p.meet_world->set_dynamic_part_size(static_cast<int>(k), 0, grown);
     p.meet_world->set_dynamic_pose(static_cast<int>(k), body.world_from_body);
   }
-  if (!std::isfinite(bound_m)) {
-    return p.meet_world->clearance(my_q, planning::CollisionWorld::Bodies::All, planning::CollisionWorld::Obstacles::Dynamic).distance_m;
+}
+
+bool Controller::site_leads_apart(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
+                                  const planning::JointVector& moving_q, double moving_known_m, const planning::JointVector& still_q,
+                                  double still_known_m) noexcept {
+  // Standing still where the way starts: one gap both ways, which no motion widens.
+  if (moving_q.size() == still_q.size() &&
+      std::memcmp(moving_q.data(), still_q.data(), sizeof(double) * static_cast<std::size_t>(moving_q.size())) == 0) {
+    return false;
   }
-  p.nearest = p.meet_world->nearest_below(my_q, planning::CollisionWorld::Bodies::All, 0.0, bound_m, &p.nearest);
-  return p.nearest.dynamic_obstacle.distance_m;
+  // Posed as the scan's sample posed it (setting the same pose and sizes again changes nothing).
+  p.model->forward_kinematics(peer_q, p.kinematics);
+  site_pose_meet(p, grow_m);
+  // clearance()'s gap: 0 in contact with the other machine or with myself (is_free()), else the
+  // distance, which nearest_below() gives below its bound and otherwise reports as the bound.
+  const auto touches = [&p](const planning::JointVector& q) noexcept { return !p.meet_world->is_free(q); };
+  // The scan's hint is read, not replaced: the samples' queries start from the pair they found.
+  const auto gap_below = [&](const planning::JointVector& q, double bound_m) noexcept {
+    if (touches(q)) return 0.0;
+    return p.meet_world->nearest_below(q, planning::CollisionWorld::Bodies::All, 0.0, bound_m, &p.nearest).dynamic_obstacle.distance_m;
+  };
+  // Each gap measured only up to what decides moving > still + kSiteApartM: a gap reported at its
+  // bound (kSiteBoundSlackM beyond the threshold) compares as the gap itself would.
+  if (!std::isnan(moving_known_m)) {
+    const double moving_m = touches(moving_q) ? 0.0 : moving_known_m;
+    // No stand is nearer than touching.
+    if (moving_m <= kSiteApartM) return false;
+    const double still_m = gap_below(still_q, moving_m - kSiteApartM + kSiteBoundSlackM);
+    return moving_m > still_m + kSiteApartM;
+  }
+  double still_m = 0.0;
+  if (std::isnan(still_known_m)) {
+    still_m = gap_below(still_q, std::numeric_limits<double>::infinity());
+  } else {
+    still_m = touches(still_q) ? 0.0 : still_known_m;
+  }
+  const double moving_m = gap_below(moving_q, still_m + kSiteApartM + kSiteBoundSlackM);
+  return moving_m > still_m + kSiteApartM;
 }
 
 void Controller::site_pose_copy(SitePeerModel& p, int copy, const planning::JointVector& q, double grow_m) noexcept {
@@ -1597,10 +1654,14 @@ void Controller::site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) 
       const double reach_m = my_reach_at(tau_s);
       const double matters_m = tau_s == 0.0 ? margin_m + horizon_s * (my_bound_m_s + p.max_point_speed_m_s) + my_reach_at(horizon_s)
                                             : margin_m + reach_m;
-      // At the first sample I stand where I am: the boxes of my bodies there are compared first.
-      const double gap_m = tau_s == 0.0
-                               ? site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, q_wrapped_, matters_m + kSiteBoundSlackM, &site_kin_) - reach_m
-                               : site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_, matters_m + kSiteBoundSlackM) - reach_m;
+      // The world boxes of my bodies, where I stand at the first sample and along my way after it,
+      // are compared first: most samples find the other machine beyond the bound by them alone.
+      const double sample_grow_m = grow_m + start_m + 0.5 * between_m;
+      const double sample_bound_m = matters_m + kSiteBoundSlackM;
+      if (tau_s > 0.0) model_->forward_kinematics(site_q_, site_way_kin_);
+      const double sample_m = tau_s == 0.0 ? site_gap_m(p, site_q2_, sample_grow_m, q_wrapped_, sample_bound_m, &site_kin_)
+                                           : site_gap_m(p, site_q2_, sample_grow_m, site_q_, sample_bound_m, &site_way_kin_);
+      const double gap_m = sample_m - reach_m;
       if (tau_s == 0.0) {
         stats_.site_min_gap_m = std::min(stats_.site_min_gap_m, gap_m);
         // Nothing either can do within the horizon closes a gap this wide.
@@ -1608,12 +1669,16 @@ void Controller::site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) 
       }
       if (gap_m <= margin_m) {
         // Only my motion toward it is stopped: where my way leads apart (as against standing
-        // still, a step on), stopping would keep me in its way.
-        const double probe_s = std::max(tau_s, step_s);
-        for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, probe_s);
-        const double moving_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, site_q_);
-        const double still_m = site_gap_m(p, site_q2_, grow_m + start_m + 0.5 * between_m, q_wrapped_);
-        if (moving_m > still_m + kSiteApartM) continue;
+        // still, a step on), stopping would keep me in its way. The sample measured one of the
+        // two gaps already, below its bound: at the first, standing; after it, my way a step on
+        // and more, which is the sample's own configuration.
+        const double known_m = sample_m < sample_bound_m ? sample_m : kNaN;
+        if (tau_s == 0.0) {
+          for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, step_s);
+          if (site_leads_apart(p, site_q2_, sample_grow_m, site_q_, kNaN, q_wrapped_, known_m)) continue;
+        } else if (site_leads_apart(p, site_q2_, sample_grow_m, site_q_, known_m, q_wrapped_, kNaN)) {
+          continue;
+        }
         meet_s = tau_s;
         break;
       }

@@ -1343,12 +1343,12 @@ CollisionWorld::NearestBelow CollisionWorld::nearest_below(const JointVector& q,
   out.static_obstacle.distance_m = std::max(0.0, static_bound_m);
   out.dynamic_obstacle.distance_m = std::max(0.0, dynamic_bound_m);
   if (bodies != Bodies::Fixed) {
-    for (const SelfPair& pair : model_.self_pairs()) {
-      CollisionObject* a = impl.bodies[static_cast<std::size_t>(pair.body_a)].object.get();
-      CollisionObject* b = impl.bodies[static_cast<std::size_t>(pair.body_b)].object.get();
-      if (!a->getAABB().overlap(b->getAABB())) continue;
-      if (intersects(a, b, impl.collision_request, impl.collision_result)) {
-        out.static_obstacle = {0.0, pair.body_a, Contact::With::Self, pair.body_b};
+    // A self pair's verdict at these two poses is remembered where a query already found it (the
+    // stop check and the meet scan ask about a machine that has not moved since).
+    const auto pairs = model_.self_pairs();
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+      if (impl.pair_hit(p, pairs[p])) {
+        out.static_obstacle = {0.0, pairs[p].body_a, Contact::With::Self, pairs[p].body_b};
         out.dynamic_obstacle = out.static_obstacle;
         return out;
       }

@@ -324,16 +324,29 @@ class Controller {
   //! The site rules for this cycle: decision, speed factor, safety stop, peers posed.
   void site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) noexcept;
   //! Distance from me at my_q to peer p posed at peer_q in its meet world, each body grown by grow_m,
-  //! when it is below bound_m (clearance()'s); when nothing is nearer, a lower bound of it at least
+  //! when it is below bound_m (nearest_below()'s: clearance()'s, except that clearance() reports 0
+  //! wherever is_free() sees a contact); when nothing is nearer, a lower bound of it at least
   //! bound_m, from bounding boxes alone. me, if given, is my kinematics at my_q: the bodies' world
   //! boxes are compared first, and a machine they show beyond the bound costs no meet-world query.
   [[nodiscard]] double site_gap_m(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
-                                  const planning::JointVector& my_q,
-                                  double bound_m = std::numeric_limits<double>::infinity(),
+                                  const planning::JointVector& my_q, double bound_m,
                                   const planning::Kinematics* me = nullptr) noexcept;
-  //! The least distance between the world boxes of my bodies (me) and of p's moving bodies as posed
-  //! in p.kinematics, each grown by grow_m: never more than the distance between the bodies. [m]
-  [[nodiscard]] double site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m) const noexcept;
+  //! Poses p's moving bodies in its meet world as p.kinematics has them, each grown by grow_m.
+  void site_pose_meet(SitePeerModel& p, double grow_m) noexcept;
+  //! Whether my way leads apart from peer p (posed at peer_q, grown by grow_m): whether my gap to it
+  //! at moving_q exceeds my gap standing at still_q by more than kSiteApartM, each gap clearance()'s.
+  //! A gap already measured below its bound in the meet world as posed so (site_gap_m()) may be
+  //! given for one of the two; NaN when not known. The other is measured only up to what decides.
+  [[nodiscard]] bool site_leads_apart(SitePeerModel& p, const planning::JointVector& peer_q, double grow_m,
+                                      const planning::JointVector& moving_q, double moving_known_m,
+                                      const planning::JointVector& still_q, double still_known_m) noexcept;
+  //! Whether bounding boxes alone show my bodies (me) and p's moving bodies as posed in
+  //! p.kinematics, those grown by grow_m, at least bound_m apart: if so, a lower bound of their
+  //! distance at least bound_m, else a value below it. Per pair the distance between their world
+  //! boxes, and where it is below the bound the larger of it and their own boxes' gap along each
+  //! one's face normals. [m]
+  [[nodiscard]] double site_apart_m(const SitePeerModel& p, const planning::Kinematics& me, double grow_m,
+                                    double bound_m) const noexcept;
   //! The other machines in the planning and escape worlds, from the cycle's inputs: a higher-priority
   //! machine at its pose and along its plan, a lower one parked, a stale one at its grown frozen pose.
   void site_pose_worlds(const SiteInputs& in) noexcept;
@@ -508,6 +521,7 @@ class Controller {
   planning::JointVector site_q2_;  //!< scratch [rad | m]
   planning::JointVector site_v_;   //!< my velocity as the scan carries it forward [rad/s | m/s]
   planning::Kinematics site_kin_{};  //!< mine at this cycle's position, for the meet scan's box test
+  planning::Kinematics site_way_kin_{};  //!< mine along my way at a later sample of the meet scan, likewise
 };
 
 }  // namespace mgc::firmware

@@ -161,7 +161,8 @@ class CollisionWorld {
   //! is measured. hint (e.g. the previous call's result) names pairs measured first to start with a low
   //! best; it changes only the cost. No collision pass first: a chosen body in contact with an obstacle
   //! gives 0 with that obstacle, and (bodies All or Moving) two bodies of a self pair in contact give 0
-  //! with With::Self in both results; a fixed body's contact does not count for Moving. RT-safe after
+  //! with With::Self in both results (a pair's verdict reused as is_free() reuses it, see
+  //! body_checks()); a fixed body's contact does not count for Moving. RT-safe after
   //! finalize() (a mesh obstacle within a bound goes through FCL's mesh path).
   [[nodiscard]] NearestBelow nearest_below(const JointVector& q, Bodies bodies, double static_bound_m,
                                            double dynamic_bound_m, const NearestBelow* hint = nullptr) noexcept;
