@@ -320,6 +320,7 @@ Controller::Controller(const planning::Scenario& scenario, const ControllerConfi
     }
     site_q_ = q_raw_;
     site_q2_ = q_raw_;
+    site_peer_q_ = q_raw_;
     site_v_ = q_raw_;
     site_state_.machine_id = site_->machine_id;
     site_state_.priority = site_priority_;
@@ -1635,13 +1636,16 @@ void Controller::site_cycle(const SiteInputs& in, const hal::SensorSnapshot& s) 
       for (int j = 0; j < nq; ++j) q[j] = st.joint_position[static_cast<std::size_t>(j)] + st.joint_velocity[static_cast<std::size_t>(j)] * (t0_s + tau_s);
     };
     double meet_s = std::numeric_limits<double>::infinity();
+    // The other machine's configurations have its own joint count, which need not be mine.
+    site_peer_q_ = p.q;
+    site_q2_ = p.q;
     for (double tau_s = 0.0; tau_s <= horizon_s + 1e-9; tau_s += step_s) {
       // Between two samples either machine moves at most half a step's travel from the nearer
       // one: mine at its carried velocity, the other's along its prediction.
-      predict(std::max(tau_s - step_s, 0.0), site_q_);
+      predict(std::max(tau_s - step_s, 0.0), site_peer_q_);
       predict(tau_s, site_q2_);
       double between_m = my_speed_m_s * step_s;
-      for (int j = 0; j < nq; ++j) between_m += p.model->displacement_bound(j) * std::abs(site_q2_[j] - site_q_[j]);
+      for (int j = 0; j < nq; ++j) between_m += p.model->displacement_bound(j) * std::abs(site_q2_[j] - site_peer_q_[j]);
       if (tau_s == 0.0) between_m += peer_speed_m_s * step_s;
       for (int j = 0; j < n_; ++j) site_q_[j] = q_wrapped_[j] + carried(j, tau_s);
       // From tags: how far its joints' accelerations carry it off the velocity since that was
@@ -1742,6 +1746,8 @@ void Controller::site_pose_worlds(const SiteInputs& in) noexcept {
   const double skew_s = static_cast<double>(rules.max_skew_us) * 1e-6;
   for (SitePeerModel& p : site_peers_) {
     const SitePeerMessages& m = in.peers[static_cast<std::size_t>(p.roster_index)];
+    // Its configurations at its own joint count.
+    site_q2_ = p.q;
     if (site_in_[static_cast<std::size_t>(p.roster_index)].tags_posed && now_us_ - m.state_received_us > rules.stale_after_us()) {
       // Stale, posed from its tags as site_cycle() measured it: where they put it, and where its
       // velocity's stop travel takes it.

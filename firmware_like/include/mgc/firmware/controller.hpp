@@ -517,8 +517,9 @@ class Controller {
   std::uint64_t site_plan_version_ = 0;
   site_state_t site_state_{};
   site_plan_t site_plan_{};
-  planning::JointVector site_q_;   //!< scratch [rad | m]
-  planning::JointVector site_q2_;  //!< scratch [rad | m]
+  planning::JointVector site_q_;   //!< scratch, mine [rad | m]
+  planning::JointVector site_q2_;  //!< scratch, another machine's configuration [rad | m]
+  planning::JointVector site_peer_q_;  //!< another machine's configuration at the meet scan's previous sample [rad | m]
   planning::JointVector site_v_;   //!< my velocity as the scan carries it forward [rad/s | m/s]
   planning::Kinematics site_kin_{};  //!< mine at this cycle's position, for the meet scan's box test
   planning::Kinematics site_way_kin_{};  //!< mine along my way at a later sample of the meet scan, likewise
