@@ -204,6 +204,30 @@ TEST_CASE("site refusals: one line naming the file, the line and the field", "[u
     const std::string text = replace_first(good, "        task:\n          load_size_m: [2.0, 2.0, 2.0]\n          sling_length_m: 2.0\n", "");
     CHECK(load_error(text) == ":80: machines[1].lifts[0].task: missing field");
   }
+  SECTION("a later lift of another load than the machine's first") {
+    const std::string second =
+        "      - name: back-south\n"
+        "        task:\n"
+        "          load_size_m: [2.0, 2.0, SIZE]\n"
+        "          sling_length_m: 2.0\n"
+        "        start: {slew_deg: 40, trolley_radius_m: 45, hook_height_m: 4.5}\n"
+        "        goal: {slew_deg: -30, trolley_radius_m: 30, hook_height_m: 4.5}\n";
+    const auto with_second = [&](const std::string& size) {
+      std::string lift = second;
+      lift.replace(lift.find("SIZE"), 4, size);
+      return good + (good.back() == '\n' ? "" : "\n") + lift;
+    };
+    {
+      TempFile file("site-two-lifts.yaml", with_second("2.0"));
+      const Site site = io::load_site(file.path());
+      REQUIRE(site.machines[1].lifts.size() == 2);
+      CHECK(site.machines[1].lifts[1].name == "back-south");
+    }
+    const std::string error = load_error(with_second("3.0"));
+    CHECK(error.rfind(":93: machines[1].lifts[1].task: differs from the machine's first lift's task; every lift of a machine "
+                      "is modelled with the first lift's load, rigging, rule, load size and sling",
+                      0) == 0);
+  }
   SECTION("more than 16 machines") {
     std::string text = good;
     std::string extra;

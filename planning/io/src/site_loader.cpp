@@ -72,7 +72,15 @@ SiteBus read_bus(const Value& value, BusOwners& owners) {
   return bus;
 }
 
-SiteLift read_lift(const Value& value, const MachineDefinition& machine, std::set<std::string>& names) {
+//! Whether two tasks lift the same load on the same rigging under the same rule.
+bool same_task(const TaskSpec& a, const TaskSpec& b) noexcept {
+  return a.load_lb == b.load_lb && a.capacity_reduction_pct == b.capacity_reduction_pct && a.outriggers == b.outriggers &&
+         a.counterweight_lb == b.counterweight_lb && a.constraint == b.constraint && a.load_size_m == b.load_size_m &&
+         a.sling_length_m == b.sling_length_m;
+}
+
+//! first: the machine's first lift, null when this is it.
+SiteLift read_lift(const Value& value, const MachineDefinition& machine, std::set<std::string>& names, const SiteLift* first) {
   Fields f = value.fields();
   SiteLift l;
   const Value name = f.required("name");
@@ -81,7 +89,14 @@ SiteLift read_lift(const Value& value, const MachineDefinition& machine, std::se
   if (machine.kind == MachineKind::Excavator) {
     if (auto task = f.optional("task")) task->fail_plain("an excavator's lift has no task (no load is lifted)");
   } else {
-    l.task = read_task_field(f.required("task"), machine);
+    const Value task = f.required("task");
+    l.task = read_task_field(task, machine);
+    // The controller, the simulator and the other members model a machine with its first lift's
+    // load and rigging throughout: a later lift that names another would be run with the wrong one.
+    if (first != nullptr && first->task && l.task && !same_task(*first->task, *l.task)) {
+      task.fail_plain("differs from the machine's first lift's task; every lift of a machine is modelled with the first "
+                      "lift's load, rigging, rule, load size and sling (docs/site.md, \"The load between lifts\")");
+    }
   }
   const Value start = f.required("start");
   l.start = read_configuration_field(start, machine);
@@ -153,7 +168,7 @@ SiteMachine read_machine_entry(const Value& value, const std::filesystem::path& 
   const auto items = lifts.non_empty_list();
   if (items.size() > kMaxSiteLifts) lifts.fail("at most " + std::to_string(kMaxSiteLifts) + " lifts");
   std::set<std::string> names;
-  for (const Value& item : items) m.lifts.push_back(read_lift(item, m.machine, names));
+  for (const Value& item : items) m.lifts.push_back(read_lift(item, m.machine, names, m.lifts.empty() ? nullptr : &m.lifts.front()));
   f.finish();
   return m;
 }
