@@ -291,6 +291,10 @@ void read_steel_frame(Fields& f, const std::string& name, std::vector<StaticObst
                           " static obstacles before it exceeds the limit of " + std::to_string(kMaxStaticObstacles));
   }
 
+  // A frame adds up to kMaxStaticObstacles boxes at once; growing the list one box at a time would
+  // copy the boxes before it again at every doubling.
+  out.reserve(out.size() + members);
+
   Eigen::Isometry3d frame = Eigen::Isometry3d::Identity();
   frame.translate(origin);
   frame.rotate(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));

@@ -256,14 +256,19 @@ std::string Value::choice(std::initializer_list<const char*> choices) const {
   fail(expected);
 }
 
-Fields::Fields(const Value& map_value, YAML::Node node) : self_(map_value), node_(std::move(node)) {
-  std::set<std::string> seen;
-  for (const auto& kv : node_) {
-    const Value key(kv.first, self_.path(), &self_.file(), self_.line());
-    if (!kv.first.IsScalar()) key.fail_plain("field names must be plain text");
-    if (!seen.insert(kv.first.Scalar()).second) {
-      throw InputError(self_.file(), key.line(), child_path(kv.first.Scalar()), "duplicate field");
+Fields::Fields(const Value& map_value, const YAML::Node& node) : self_(map_value) {
+  entries_.reserve(node.size());
+  for (const auto& kv : node) {
+    if (!kv.first.IsScalar()) {
+      const Value key(kv.first, self_.path(), &self_.file(), self_.line());
+      key.fail_plain("field names must be plain text");
     }
+    const std::string& name = kv.first.Scalar();
+    if (!index_.emplace(name, entries_.size()).second) {
+      const Value key(kv.first, self_.path(), &self_.file(), self_.line());
+      throw InputError(self_.file(), key.line(), child_path(name), "duplicate field");
+    }
+    entries_.push_back({name, kv.first, kv.second});
   }
 }
 
@@ -271,15 +276,13 @@ std::string Fields::child_path(const std::string& key) const {
   return self_.path().empty() ? key : self_.path() + "." + key;
 }
 
-bool Fields::has(const std::string& key) const { return node_[key].IsDefined(); }
+bool Fields::has(const std::string& key) const { return index_.find(key) != index_.end(); }
 
 Value Fields::child(const std::string& key) const {
-  for (const auto& kv : node_) {
-    if (kv.first.Scalar() == key) {
-      return Value(kv.second, child_path(key), &self_.file(), self_.line(), kv.first.Mark().line + 1);
-    }
-  }
-  return Value(YAML::Node(), child_path(key), &self_.file(), self_.line());
+  const auto it = index_.find(key);
+  if (it == index_.end()) return Value(YAML::Node(), child_path(key), &self_.file(), self_.line());
+  const Entry& e = entries_[it->second];
+  return Value(e.value, child_path(key), &self_.file(), self_.line(), e.key_node.Mark().line + 1);
 }
 
 Value Fields::required(const std::string& key) {
@@ -312,12 +315,11 @@ std::pair<std::string, Value> Fields::one_of(std::initializer_list<std::string> 
 }
 
 void Fields::finish() const {
-  for (const auto& kv : node_) {
-    const std::string key = kv.first.Scalar();
-    if (used_.count(key) != 0) continue;
+  for (const Entry& e : entries_) {
+    if (used_.count(e.key) != 0) continue;
     std::string known;
     for (const std::string& u : used_) known += (known.empty() ? "" : ", ") + u;
-    const Value v(kv.first, child_path(key), &self_.file(), self_.line());
+    const Value v(e.key_node, child_path(e.key), &self_.file(), self_.line());
     v.fail_plain("unknown field (known fields here: " + known + ")");
   }
 }

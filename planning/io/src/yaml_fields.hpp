@@ -8,7 +8,9 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <set>
 #include <string>
@@ -80,7 +82,7 @@ class Value {
 
 class Fields {
  public:
-  explicit Fields(const Value& map_value, YAML::Node node);
+  explicit Fields(const Value& map_value, const YAML::Node& node);
 
   [[nodiscard]] Value required(const std::string& key);
   [[nodiscard]] std::optional<Value> optional(const std::string& key);
@@ -92,11 +94,22 @@ class Fields {
   [[nodiscard]] const Value& self() const noexcept { return self_; }
 
  private:
+  //! One field of the map, in file order.
+  struct Entry {
+    std::string key;
+    YAML::Node key_node;
+    YAML::Node value;
+  };
+
   [[nodiscard]] std::string child_path(const std::string& key) const;
   [[nodiscard]] Value child(const std::string& key) const;
 
   Value self_;
-  YAML::Node node_;
+  // The map's fields are listed once here: yaml-cpp finds a key in a map by a linear scan that
+  // builds a node and a string for every field it passes, so asking a map of n fields for each
+  // of them through the node costs n^2 of those.
+  std::vector<Entry> entries_;
+  std::map<std::string, std::size_t, std::less<>> index_;
   std::set<std::string> used_;
 };
 
