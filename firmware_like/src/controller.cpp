@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -1388,10 +1387,7 @@ bool Controller::site_leads_apart(SitePeerModel& p, const planning::JointVector&
                                   const planning::JointVector& moving_q, double moving_known_m, const planning::JointVector& still_q,
                                   double still_known_m) noexcept {
   // Standing still where the way starts: one gap both ways, which no motion widens.
-  if (moving_q.size() == still_q.size() &&
-      std::memcmp(moving_q.data(), still_q.data(), sizeof(double) * static_cast<std::size_t>(moving_q.size())) == 0) {
-    return false;
-  }
+  if (moving_q.size() == still_q.size() && moving_q == still_q) return false;
   // Posed as the scan's sample posed it (setting the same pose and sizes again changes nothing).
   p.model->forward_kinematics(peer_q, p.kinematics);
   site_pose_meet(p, grow_m);

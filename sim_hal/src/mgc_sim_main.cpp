@@ -282,27 +282,6 @@ MemoryLock lock_memory() {
 //! log rows at the default 10 ms, far longer than any stall of a CPU seen on a shared VM. [-]
 constexpr std::size_t kTruthFrames = 512;
 
-//! When the truth monitor is due, on the loop's side: the monitor's own grid (TruthMonitor), so
-//! that every frame handed over for a sample is one it takes.
-class TruthGrid {
- public:
-  //! period_s 0: never due.
-  explicit TruthGrid(double period_s) noexcept : period_s_(period_s) {}
-  //! Whether a sample is due at simulation time t_s; if so, the grid moves on.
-  bool due(double t_s) noexcept {
-    // As the monitor's: a sample due at 0.05 s must not wait a physics step for a rounding error.
-    constexpr double kTimeSlackS = 1e-9;
-    if (period_s_ <= 0.0 || t_s < next_t_s_ - kTimeSlackS) return false;
-    next_t_s_ = std::isfinite(next_t_s_) ? next_t_s_ + period_s_ : t_s + period_s_;
-    if (next_t_s_ <= t_s) next_t_s_ = t_s + period_s_;
-    return true;
-  }
-
- private:
-  double period_s_;
-  double next_t_s_ = -std::numeric_limits<double>::infinity();
-};
-
 //! The work of one loop iteration, phase by phase: the simulator's step (reading the bus,
 //! answering, the physics), the truth monitor's sample and the truth log's row. Plain maxima and
 //! counters, updated under the loop's lock: no allocation in the loop. The loop's gaps, wake-ups
@@ -431,7 +410,7 @@ int run_whole_site(const mgc::planning::Site& site, const mgc::sim::SimConfig& c
   const std::int64_t start_us = clock.now_us();
   const std::int64_t end_us = o.duration_s > 0.0 ? start_us + static_cast<std::int64_t>(o.duration_s * 1e6) : INT64_MAX;
   mgc::sim::TruthFrameRing frames(kTruthFrames, site_sim.make_frame());
-  TruthGrid monitor_grid(site_sim.monitor_period_s());
+  mgc::sim::SampleGrid monitor_grid(site_sim.monitor_period_s());
   mgc::sim::RealtimeLoop loop(clock, buses,
                               {.threads = o.loop_threads, .sync_period_us = sync_period_us, .stale_after_us = stale_after_us});
   const auto observe = [&] {
@@ -445,7 +424,7 @@ int run_whole_site(const mgc::planning::Site& site, const mgc::sim::SimConfig& c
       [&](std::int64_t now_us) -> std::int64_t {
         site_sim.step(now_us);
         timing.step(clock.now_us() - now_us, site_sim.time_s());
-        if (monitor_config && monitor_grid.due(site_sim.time_s())) {
+        if (monitor_config && monitor_grid.take(site_sim.time_s())) {
           if (mgc::sim::TruthFrame* frame = frames.begin_push()) {
             site_sim.capture(*frame);
             frame->monitor_due = true;
@@ -662,7 +641,8 @@ int main(int argc, char** argv) {
     prototype.machines.resize(1);
     prototype.machines[0].resize_for(sim);
     mgc::sim::TruthFrameRing frames(kTruthFrames, prototype);
-    TruthGrid monitor_grid(monitor ? monitor->config().period_s : 0.0);
+    // The monitor's own grid, so that every frame handed over for a sample is one it takes.
+    mgc::sim::SampleGrid monitor_grid(monitor ? monitor->config().period_s : 0.0);
     mgc::sim::RealtimeLoop loop(clock, *opened.bus,
                                 {.threads = loop_threads,
                                  .sync_period_us = sim.plan().timing.sync_period_us,
@@ -687,7 +667,7 @@ int main(int argc, char** argv) {
         [&](std::int64_t now_us) -> std::int64_t {
           sim.step(now_us);
           timing.step(clock.now_us() - now_us, sim.time_s());
-          const bool monitor_due = monitor && monitor_grid.due(sim.time_s());
+          const bool monitor_due = monitor && monitor_grid.take(sim.time_s());
           const bool log_due = log && now_us >= next_log_us;
           if (monitor_due || log_due) {
             if (mgc::sim::TruthFrame* frame = frames.begin_push()) {

@@ -6,13 +6,6 @@
 #include <stdexcept>
 
 namespace mgc::sim {
-namespace {
-
-//! As the truth monitor's: a sample due at 0.05 s must not wait a physics step for a rounding
-//! error of the microsecond clock. [s]
-constexpr double kTimeSlack_s = 1e-9;
-
-}  // namespace
 
 std::vector<std::unique_ptr<planning::MachineModel>> add_site_tags(const planning::Site& site, std::span<Simulator* const> sims) {
   if (sims.size() != site.machines.size()) throw std::invalid_argument("site tags: a simulator per machine expected");
@@ -62,6 +55,7 @@ SiteSimulation::SiteSimulation(const planning::Site& site, std::span<hal::CanBus
   tag_models_ = add_site_tags(site, sims);
   if (monitor) {
     period_s_ = monitor->period_s;
+    grid_ = SampleGrid(monitor->period_s);
     referee_ = std::make_unique<SitePairReferee>(site, monitor->clearance_margin_m);
   }
 }
@@ -100,11 +94,8 @@ bool SiteSimulation::sample(const TruthFrame& frame) noexcept {
 bool SiteSimulation::referee_sample(std::span<const TrueState* const> truths) noexcept {
   if (!referee_ || truths.empty()) return false;
   const double t_s = truths.front()->t_s;
-  if (next_sample_t_s_ >= 0.0 && t_s < next_sample_t_s_ - kTimeSlack_s) return false;
+  if (!grid_.take(t_s)) return false;
   referee_->measure(t_s, truths);
-  // On the period's grid while the loop keeps up; from now on when it fell behind by a period.
-  next_sample_t_s_ = next_sample_t_s_ < 0.0 ? t_s + period_s_ : next_sample_t_s_ + period_s_;
-  if (next_sample_t_s_ <= t_s) next_sample_t_s_ = t_s + period_s_;
   return true;
 }
 

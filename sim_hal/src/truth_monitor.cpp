@@ -14,10 +14,6 @@ namespace mgc::sim {
 
 namespace {
 
-//! Sim time advances in physics steps computed from integer microseconds: a sample due at 0.05 s
-//! must not wait a step for a rounding error. [s]
-constexpr double kTimeSlackS = 1e-9;
-
 //! A load set down on the ground touches it at 0; rounding in the kinematics must not count it as
 //! below, as planning's load-above-ground rule allows the same. [m]
 constexpr double kGroundToleranceM = 1e-9;
@@ -43,6 +39,7 @@ TruthMonitor::TruthMonitor(const planning::Scenario& scenario, TruthMonitorConfi
   if (!(std::isfinite(config.period_s) && config.period_s >= 0.0)) {
     throw std::invalid_argument("truth monitor: the period must be a finite number >= 0 s");
   }
+  grid_ = SampleGrid(config.period_s);
   if (!(std::isfinite(config.clearance_margin_m) && config.clearance_margin_m >= 0.0)) {
     throw std::invalid_argument("truth monitor: the clearance margin must be a finite number >= 0 m");
   }
@@ -92,17 +89,15 @@ TruthMonitor::TruthMonitor(const planning::Scenario& scenario, TruthMonitorConfi
 
 TruthMonitor::~TruthMonitor() = default;
 
-bool TruthMonitor::due(double t_s) const noexcept { return t_s >= next_sample_t_s_ - kTimeSlackS; }
-
 bool TruthMonitor::sample(const Simulator& sim) noexcept {
-  if (!due(sim.truth().t_s)) return false;
+  if (!grid_.due(sim.truth().t_s)) return false;
   for (std::size_t i = 0; i < num_dynamic_; ++i) set_obstacle_pose(i, sim.obstacle_pose(i));
   sample_truth(sim.truth());
   return true;
 }
 
 bool TruthMonitor::sample(const TruthSnapshot& snapshot) noexcept {
-  if (!due(snapshot.truth.t_s)) return false;
+  if (!grid_.due(snapshot.truth.t_s)) return false;
   for (std::size_t i = 0; i < std::min(num_dynamic_, snapshot.obstacle_poses.size()); ++i) set_obstacle_pose(i, snapshot.obstacle_poses[i]);
   sample_truth(snapshot.truth);
   return true;
@@ -112,9 +107,7 @@ void TruthMonitor::sample_truth(const TrueState& truth) noexcept {
   planning::JointVector q(model_->dof());
   for (int j = 0; j < model_->dof(); ++j) q[j] = truth.position[static_cast<std::size_t>(j)];
   (void)measure(truth.t_s, q);
-  // On the period's grid while the caller keeps up; from now on when it fell behind by a period.
-  next_sample_t_s_ = std::isfinite(next_sample_t_s_) ? next_sample_t_s_ + config_.period_s : truth.t_s + config_.period_s;
-  if (next_sample_t_s_ <= truth.t_s) next_sample_t_s_ = truth.t_s + config_.period_s;
+  grid_.taken(truth.t_s);
 }
 
 void TruthMonitor::set_obstacle_pose(std::size_t i, const Eigen::Isometry3d& world_from_obstacle) noexcept {

@@ -86,7 +86,7 @@ class SiteSimulation {
   std::vector<const TrueState*> truths_;
   std::vector<const TrueState*> frame_truths_;  //!< sample(frame)'s, into the frame
   double period_s_ = 0.0;
-  double next_sample_t_s_ = -1.0;  //!< negative: not sampled yet
+  SampleGrid grid_{0.0};  //!< the pair referee's, on the monitor's period
 };
 
 }  // namespace mgc::sim

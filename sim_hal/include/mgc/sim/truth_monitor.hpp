@@ -3,6 +3,7 @@
 
 #include <Eigen/Geometry>
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -20,6 +21,33 @@ namespace mgc::sim {
 class Simulator;
 struct TrueState;
 struct TruthSnapshot;
+
+//! When a sample is due on a period of simulation time: on the grid of the first sample while the
+//! caller keeps up, on a new grid from the late sample once it fell a period behind. The first
+//! call is always due. Shared by the truth monitor, the site's pair referee and mgc-sim's loop,
+//! which must agree on which steps are sampled.
+class SampleGrid {
+ public:
+  explicit SampleGrid(double period_s) noexcept : period_s_(period_s) {}
+  //! A sample is due at simulation time t_s. A sample due at 0.05 s does not wait a physics step
+  //! for a rounding error of the microsecond clock.
+  [[nodiscard]] bool due(double t_s) const noexcept { return t_s >= next_t_s_ - 1e-9; }
+  //! A sample was taken at t_s: the grid moves on.
+  void taken(double t_s) noexcept {
+    next_t_s_ = std::isfinite(next_t_s_) ? next_t_s_ + period_s_ : t_s + period_s_;
+    if (next_t_s_ <= t_s) next_t_s_ = t_s + period_s_;
+  }
+  //! due(), and if so taken().
+  bool take(double t_s) noexcept {
+    if (!due(t_s)) return false;
+    taken(t_s);
+    return true;
+  }
+
+ private:
+  double period_s_;
+  double next_t_s_ = -std::numeric_limits<double>::infinity();
+};
 
 struct TruthMonitorConfig {
   //! Least simulation time between two samples: an FCL distance pass over a steel frame costs
@@ -168,11 +196,9 @@ class TruthMonitor {
   const planning::MobileCrane* crane_ = nullptr;
   double chart_load_lb_ = 0.0;  //!< [lb]
   planning::Kinematics kinematics_{};  //!< a member: forward kinematics fill it at every sample
-  //! A period has passed since the last sample at simulation time t_s (or none was taken).
-  [[nodiscard]] bool due(double t_s) const noexcept;
   //! Measures the true joints and moves the sampling grid on.
   void sample_truth(const TrueState& truth) noexcept;
-  double next_sample_t_s_ = -std::numeric_limits<double>::infinity();
+  SampleGrid grid_{0.0};  //!< on the configured period, set by the constructor
   TruthSample last_{};
   TruthSummary summary_{};
 };
