@@ -40,7 +40,8 @@ struct LoadChart {
 //! G differs twice: it takes a capacity equal to the load (the limiter cuts the moment-increasing
 //! motions and hoist raising at 100 %, so a path through such a cell could not be driven), and it
 //! takes the largest radius whose own capacity covers the load (the same where capacities fall
-//! with the radius, which App. G's 36-ft row does not). Computed once per load so a check is a search over a handful of rows.
+//! with the radius, which App. G's 36-ft row does not). Computed once per load so a check is a
+//! search over a handful of rows.
 class LoadChartRule {
  public:
   //! load_lb already includes any capacity reduction. Throws std::invalid_argument when no row
