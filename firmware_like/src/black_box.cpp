@@ -1055,7 +1055,10 @@ ReplayResult replay(const Recording& recording, const planning::Scenario& scenar
     if (out.start_nodes) (void)hal.send_nmt(hal::canopen::NmtCommand::Start, 0);
     hal.set_pilot_enabled(out.pilot_enable);
     (void)hal.write(out.velocity, c.read_us);
-    (void)controller.supervisor().log().drain(drained);
+    const std::size_t n_drained = controller.supervisor().log().drain(drained);
+    result.transition_log.insert(result.transition_log.end(), drained.begin(),
+                                 drained.begin() + static_cast<std::ptrdiff_t>(n_drained));
+    if (result.cycles == 0) result.first_cycle_read_us = c.read_us;
     if (c.transitioned) ++result.transitions;
     const CycleEntry mine = make_cycle_entry(c.cycle, c.read_us, c.dt_us, c.watchdog_tripped, s, c.commands, out,
                                              controller.snapshot(), c.refusals_total);

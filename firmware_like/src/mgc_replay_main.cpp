@@ -12,6 +12,7 @@
 #include <string>
 
 #include "mgc/firmware/black_box.hpp"
+#include "mgc/guidance/supervisor.hpp"
 #include "mgc/planning/io/scenario_loader.hpp"
 #include "mgc/planning/io/site_loader.hpp"
 
@@ -139,6 +140,13 @@ int main(int argc, char** argv) {
   if (!r.replayable) {
     std::printf("mgc-replay: cannot replay: %s\n", r.why_not.c_str());
     return 1;
+  }
+  // What the run did and why, as mgc printed it: the replayed supervisor's transitions, up to
+  // where the replay stopped.
+  for (const guidance::TransitionRecord& t : r.transition_log) {
+    std::printf("mgc-replay: %8.2f s  %-10s -> %-10s %s%s%s\n", static_cast<double>(t.t_us - r.first_cycle_read_us) * 1e-6,
+                guidance::to_string(t.from), guidance::to_string(t.to), guidance::to_string(t.reason),
+                t.detail[0] != '\0' ? ": " : "", t.detail.data());
   }
   if (r.incomplete) {
     std::printf("mgc-replay: incomplete at cycle %" PRIu64 " (t %" PRId64 " us, after %" PRIu64 " identical cycles): %s; not replayed further\n",

@@ -78,6 +78,33 @@ TEST_CASE("a lift recorded on the rig replays identically in every cycle", "[fir
   CHECK(r.cycles == 3000);
   CHECK(r.transitions >= 3);  // INIT -> HOLD -> PLANNING -> EXECUTING
   CHECK(r.frames > 3000);
+
+  // The replayed transitions, which mgc-replay prints, are the recorded cycles that transitioned:
+  // the same time, state and reason, each from the state before.
+  std::vector<bb::CycleEntry> transitioned;
+  guidance::SupervisorState before = guidance::SupervisorState::Init;
+  std::vector<guidance::SupervisorState> from;
+  std::int64_t first_read_us = -1;
+  for (const bb::Entry& e : rec.entries) {
+    if (e.type != bb::RecordType::Cycle) continue;
+    if (first_read_us < 0) first_read_us = e.cycle.read_us;
+    if (e.cycle.transitioned) {
+      transitioned.push_back(e.cycle);
+      from.push_back(before);
+    }
+    before = e.cycle.state;
+  }
+  REQUIRE(r.transition_log.size() == transitioned.size());
+  REQUIRE(r.transition_log.size() == r.transitions);
+  CHECK(r.first_cycle_read_us == first_read_us);
+  for (std::size_t i = 0; i < transitioned.size(); ++i) {
+    INFO("transition " << i);
+    CHECK(r.transition_log[i].t_us == transitioned[i].read_us);
+    CHECK(r.transition_log[i].to == transitioned[i].state);
+    CHECK(r.transition_log[i].reason == transitioned[i].reason);
+    CHECK(r.transition_log[i].from == from[i]);
+  }
+  CHECK(r.transition_log.back().to == guidance::SupervisorState::Executing);
 }
 
 TEST_CASE("an altered decision in the file is named by its cycle and field", "[firmware][sim][black-box]") {

@@ -21,19 +21,35 @@ base=$((55000 + ($$ % 2000) * 2))
 sim_port=$base
 mgc_port=$((base + 1))
 
-"$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$sim_port,peer=127.0.0.1:$mgc_port" --duration 20 --quiet >"$tmp/sim.out" 2>&1 &
-sim_pid=$!
-sleep 0.3
-"$mgc" --scenario "$scenario" --bus "udp:127.0.0.1:$mgc_port,peer=127.0.0.1:$sim_port" --lcm-url memq:// --goal-on-start \
-  --duration 20 --black-box "$tmp/run.mgcbb" >"$tmp/mgc.out" 2>&1 &
-mgc_pid=$!
-# The ring while mgc writes it, read every 0.1 s (mgc-replay --summary) for at least 3 s and at
-# least 10 reads, however long one read takes (under a sanitizer, a few tenths of a second), but
-# no longer than 12 s, well before mgc's 20 s end: its last cycle is never a second old. A
-# recorder that wrote only whole blocks (some 1.5 s of the lift each) would fall more than a
-# second behind for a third of the time.
-sleep 1.5
-python3 - "$replay" "$tmp/run.mgcbb" "$mgc_pid" >"$tmp/live.out" <<'PY'
+# As on a cab computer, and as the demo runs them: both loops on two threads, so that a CPU taken
+# away for a moment does not stall the bus, and real-time scheduling where the OS permits it, so
+# that other tests' processes do not delay the loops past the 30 ms staleness limit.
+rt=()
+rt_mgc=()
+if chrt -f 10 true 2>/dev/null; then
+  rt=(chrt -f 40)
+  rt_mgc=(--fifo-priority 50)
+fi
+
+# run_and_kill: mgc-sim and mgc with --black-box, the live ring read, mgc killed. Leaves
+# $tmp/run.mgcbb, live.out, mgc.out and sim.out, the live reading's exit code in $live_rc and
+# mgc's in $code.
+run_and_kill() {
+  rm -f "$tmp/run.mgcbb"
+  "${rt[@]}" "$sim" --scenario "$scenario" --bus "udp:127.0.0.1:$sim_port,peer=127.0.0.1:$mgc_port" --duration 20 --quiet \
+    --loop-threads 2 >"$tmp/sim.out" 2>&1 &
+  sim_pid=$!
+  sleep 0.3
+  "$mgc" --scenario "$scenario" --bus "udp:127.0.0.1:$mgc_port,peer=127.0.0.1:$sim_port" --lcm-url memq:// --goal-on-start \
+    --duration 20 --loop-threads 2 "${rt_mgc[@]}" --black-box "$tmp/run.mgcbb" >"$tmp/mgc.out" 2>&1 &
+  mgc_pid=$!
+  # The ring while mgc writes it, read every 0.1 s (mgc-replay --summary) for at least 3 s and at
+  # least 10 reads, however long one read takes (under a sanitizer, a few tenths of a second), but
+  # no longer than 12 s, well before mgc's 20 s end: its last cycle is never a second old. A
+  # recorder that wrote only whole blocks (some 1.5 s of the lift each) would fall more than a
+  # second behind for a third of the time.
+  sleep 1.5
+  python3 - "$replay" "$tmp/run.mgcbb" "$mgc_pid" >"$tmp/live.out" <<'PY'
 import os, re, signal, subprocess, sys, time
 worst_us, samples = -10**9, 0
 start = time.monotonic()
@@ -55,16 +71,40 @@ os.kill(int(sys.argv[3]), signal.SIGKILL)
 after_us = time.monotonic_ns() // 1000
 print(f"{samples} {worst_us} {before_us} {after_us}")
 PY
-[ $? -eq 0 ] || fail "reading the live ring: $(cat "$tmp/live.out")"
+  live_rc=$?
+  wait "$mgc_pid" 2>/dev/null
+  code=$?
+  kill "$sim_pid" 2>/dev/null
+  wait "$sim_pid" 2>/dev/null
+}
+
+# A stall of this host beyond the 30 ms staleness limit (or mgc's loop watchdog) faults the lift,
+# as designed: a shared virtual machine stalls every process at once for 70-150 ms now and then,
+# which real-time scheduling does not prevent. A run that faulted at such a stall, seen in the
+# simulator's longest loop gap or as a watchdog trip among the replayed transitions, is run again
+# (twice at most); every check applies to the run judged, and a fault without a stall fails.
+stalled() {
+  local gap_ms
+  gap_ms=$(sed -nE 's/^mgc-sim: timing: .*longest gap between two ([0-9]+)\.[0-9]+ ms.*/\1/p' "$tmp/sim.out")
+  "$replay" "$tmp/run.mgcbb" >"$tmp/stall.out" 2>&1
+  grep -q -- '-> FAULT' "$tmp/stall.out" || return 1
+  [ "${gap_ms:-0}" -ge 30 ] && return 0
+  grep -q -- '-> FAULT .*WatchdogTripped' "$tmp/stall.out"
+}
+
+for attempt in 1 2 3; do
+  run_and_kill
+  { [ "$live_rc" -eq 0 ] && [ "$code" -eq 137 ] && stalled; } || break
+  echo "note: attempt $attempt faulted at a stall of this machine; run again:"
+  grep -hE -- '-> |^mgc-sim: timing:' "$tmp/stall.out" "$tmp/sim.out"
+done
+[ "$live_rc" -eq 0 ] || fail "reading the live ring: $(cat "$tmp/live.out")"
 read -r samples worst_lag_us kill_before_us kill_us <"$tmp/live.out"
 echo "live: $samples samples, the ring's last cycle at most $worst_lag_us us old"
 [ "${samples:-0}" -ge 10 ] || fail "$samples samples of the live ring in 12 s, expected at least 10"
 [ "${worst_lag_us:-9999999}" -lt 1000000 ] || fail "the live ring fell $worst_lag_us us behind, expected under 1 s"
-wait "$mgc_pid" 2>/dev/null
-code=$?
-kill "$sim_pid" 2>/dev/null
-wait "$sim_pid" 2>/dev/null
 [ "$code" -eq 137 ] || fail "mgc exited $code, expected 137 (killed): $(cat "$tmp/mgc.out")"
+grep -E '^mgc-sim: timing:' "$tmp/sim.out"
 
 "$replay" "$tmp/run.mgcbb" >"$tmp/replay.out" 2>"$tmp/replay.err"
 rc=$?

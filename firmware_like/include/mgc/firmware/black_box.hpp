@@ -345,6 +345,10 @@ struct ReplayResult {
   std::int64_t last_read_us = 0;     //!< the last recorded cycle's time [µs]
   std::uint64_t frames = 0;          //!< frames fed [-]
   std::uint64_t transitions = 0;     //!< supervisor transitions recorded [-]
+  //! The replayed supervisor's transitions, in order: what the recorded run did and why, as mgc
+  //! prints it (times are the recorded cycle times).
+  std::vector<guidance::TransitionRecord> transition_log;
+  std::int64_t first_cycle_read_us = 0;  //!< the first replayed cycle's time, the log's origin [µs]
   std::uint64_t site_messages = 0;   //!< site states and plans fed [-]
   //! The recording lacks inputs of a cycle (records dropped by a full queue, site records missing):
   //! replay stopped before it; identical then speaks of the cycles before.
