@@ -965,6 +965,27 @@ Difference compare(const CycleEntry& rec, const CycleEntry& rep) {
 
 }  // namespace
 
+std::vector<RecordedTransition> recorded_transitions(const Recording& recording) {
+  std::vector<RecordedTransition> out;
+  const CycleEntry* previous = nullptr;
+  for (const Entry& e : recording.entries) {
+    if (e.type != RecordType::Cycle) continue;
+    const CycleEntry& c = e.cycle;
+    if (c.transitioned) {
+      RecordedTransition t;
+      t.cycle = c.cycle;
+      t.t_us = c.read_us;
+      t.from_known = previous != nullptr && previous->cycle + 1 == c.cycle;
+      if (t.from_known) t.from = previous->state;
+      t.to = c.state;
+      t.reason = c.reason;
+      out.push_back(t);
+    }
+    previous = &c;
+  }
+  return out;
+}
+
 ReplayResult replay(const Recording& recording, const planning::Scenario& scenario, const SiteMemberConfig* site) {
   ReplayResult result;
   const Identity& id = recording.identity;

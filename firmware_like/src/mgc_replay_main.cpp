@@ -80,7 +80,18 @@ int main(int argc, char** argv) {
   }
   if (rec.torn_tail_bytes > 0) std::printf("mgc-replay: truncated tail: %zu bytes not a whole record, dropped\n", rec.torn_tail_bytes);
 
-  if (summary_only) return 0;
+  // The transitions as recorded, readable without a replay (a wrapped ring's too): printed with
+  // the summary, and where the recording cannot be replayed.
+  const auto print_recorded_transitions = [&] {
+    for (const bb::RecordedTransition& t : bb::recorded_transitions(rec)) {
+      std::printf("mgc-replay: recorded %8.2f s  %-10s -> %-10s %s (cycle %" PRIu64 ")\n", static_cast<double>(t.t_us - first_us) * 1e-6,
+                  t.from_known ? guidance::to_string(t.from) : "?", guidance::to_string(t.to), guidance::to_string(t.reason), t.cycle);
+    }
+  };
+  if (summary_only) {
+    print_recorded_transitions();
+    return 0;
+  }
 
   const bool member = id.site_machine_id != 0;
   if (member && !scenario_file.empty()) {
@@ -138,6 +149,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (!r.replayable) {
+    print_recorded_transitions();
     std::printf("mgc-replay: cannot replay: %s\n", r.why_not.c_str());
     return 1;
   }

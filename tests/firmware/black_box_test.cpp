@@ -4,6 +4,7 @@
 // in the middle is named by its offset; a torn or cut tail is reported and the rest replays.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -243,4 +244,45 @@ TEST_CASE("a ring that has wrapped is read but not replayed", "[firmware][sim][b
   const bb::ReplayResult r = bb::replay(wrapped, scenario);
   CHECK_FALSE(r.replayable);
   CHECK(r.why_not.find("wrapped") != std::string::npos);
+}
+
+TEST_CASE("the transitions are read from a recording without replay, a wrapped ring's too", "[firmware][sim][black-box]") {
+  const bb::Recording rec = bb::read_recording(recorded_lift());
+  const planning::Scenario scenario = planning::io::load_scenario(test::scenario_path("thesis-steel-frame.yaml"));
+  const bb::ReplayResult replayed = bb::replay(rec, scenario);
+  REQUIRE(replayed.identical);
+  const std::vector<bb::RecordedTransition> read = bb::recorded_transitions(rec);
+  REQUIRE(read.size() == replayed.transition_log.size());
+  REQUIRE(read.size() >= 3);
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    INFO("transition " << i);
+    CHECK(read[i].t_us == replayed.transition_log[i].t_us);
+    CHECK(read[i].from_known);
+    CHECK(read[i].from == replayed.transition_log[i].from);
+    CHECK(read[i].to == replayed.transition_log[i].to);
+    CHECK(read[i].reason == replayed.transition_log[i].reason);
+  }
+
+  // The ring as it would be had it wrapped just before the second transition's cycle: that one's
+  // previous state is gone, the later ones read as before.
+  bb::Recording cut = rec;
+  const std::uint64_t keep_from = read[1].cycle;
+  const auto first_kept = std::find_if(cut.entries.begin(), cut.entries.end(), [&](const bb::Entry& e) {
+    return e.type == bb::RecordType::Cycle && e.cycle.cycle == keep_from;
+  });
+  REQUIRE(first_kept != cut.entries.end());
+  cut.entries.erase(cut.entries.begin(), first_kept);
+  cut.wrapped = true;
+  CHECK_FALSE(bb::replay(cut, scenario).replayable);
+  const std::vector<bb::RecordedTransition> from_cut = bb::recorded_transitions(cut);
+  REQUIRE(from_cut.size() == read.size() - 1);
+  CHECK(from_cut[0].cycle == keep_from);
+  CHECK_FALSE(from_cut[0].from_known);
+  CHECK(from_cut[0].to == read[1].to);
+  CHECK(from_cut[0].reason == read[1].reason);
+  for (std::size_t i = 1; i < from_cut.size(); ++i) {
+    CHECK(from_cut[i].from_known);
+    CHECK(from_cut[i].from == read[i + 1].from);
+    CHECK(from_cut[i].to == read[i + 1].to);
+  }
 }

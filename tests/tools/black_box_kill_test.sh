@@ -122,6 +122,13 @@ lost_us=$((kill_us - ${last_us:-0}))
 echo "parsed: cycles=$cycles transitions=$transitions kill_us=$kill_before_us..$kill_us last_recorded_us=$last_us lost_us=$lost_us"
 [ "$lost_us" -ge 0 ] && [ "$lost_us" -lt 1000000 ] || fail "the recording ends $lost_us us before the kill, expected under 1 s"
 
+# The transitions read off the recording alone (--summary) are the replayed ones.
+"$replay" "$tmp/run.mgcbb" --summary >"$tmp/summary.out" 2>&1
+sed -nE 's/^mgc-replay: recorded +([0-9]+\.[0-9]+ s .*) \(cycle [0-9]+\)$/\1/p' "$tmp/summary.out" | tr -s ' ' >"$tmp/recorded.txt"
+sed -nE 's/^mgc-replay: +([0-9]+\.[0-9]+ s .*)$/\1/p' "$tmp/replay.out" | tr -s ' ' >"$tmp/replayed.txt"
+[ -s "$tmp/recorded.txt" ] && cmp -s "$tmp/recorded.txt" "$tmp/replayed.txt" ||
+  fail "the recorded transitions differ from the replayed: $(cat "$tmp/recorded.txt") / $(cat "$tmp/replayed.txt")"
+
 expect_bad "not a recording" "^mgc-replay: .*scenario.*\(offset 0\): magic .*not a black box recording$" "$scenario"
 python3 - "$tmp/run.mgcbb" "$tmp/corrupt.mgcbb" <<'PY'
 import sys

@@ -332,6 +332,20 @@ struct Recording {
 //! version 1 has no site records): the tests' way of altering one.
 void write_recording(const std::string& path, const Recording& recording, std::size_t file_bytes);
 
+//! A supervisor transition as the recording holds it, read without replaying: a cycle whose
+//! transition flag is set, with the state it ended in and its reason. Readable from any recording,
+//! a wrapped ring's included. A cycle that transitioned twice shows its last transition.
+struct RecordedTransition {
+  std::uint64_t cycle = 0;
+  std::int64_t t_us = 0;  //!< the cycle's recorded time [µs]
+  //! The previous cycle's state; unknown (false) for the oldest cycle kept and after a gap.
+  bool from_known = false;
+  guidance::SupervisorState from = guidance::SupervisorState::Init;
+  guidance::SupervisorState to = guidance::SupervisorState::Init;
+  guidance::TransitionReason reason = guidance::TransitionReason::None;
+};
+[[nodiscard]] std::vector<RecordedTransition> recorded_transitions(const Recording& recording);
+
 struct ReplayResult {
   bool replayable = true;            //!< false: the ring no longer holds the run's first cycle
   std::string why_not;
