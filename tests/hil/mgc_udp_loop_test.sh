@@ -12,8 +12,7 @@ cli="$mgc"
 source "$root/tests/tools/cli_support.sh"
 scenario="$root/scenarios/thesis-steel-frame.yaml"
 
-# Ports of this test: apart from mgc_sim_cli's 41000..48999 range would not be enough, so 49000 up.
-base=$((49000 + ($$ % 3000) * 2))
+base=$(test_ports mgc_udp_loop 2)
 sim_port=$base
 mgc_port=$((base + 1))
 

@@ -16,8 +16,7 @@ tools="$mgc $sim"
 source "$root/tests/tools/cli_support.sh"
 scenario="$root/scenarios/thesis-steel-frame.yaml"
 
-# Ports of this test, above mgc_udp_loop_hil's 49000..54999.
-base=$((55000 + ($$ % 2000) * 2))
+base=$(test_ports black_box_kill 2)
 sim_port=$base
 mgc_port=$((base + 1))
 

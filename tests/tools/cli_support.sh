@@ -14,6 +14,24 @@ trap 'rm -rf "$tmp"' EXIT
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
+# test_ports <test> <count>: the first of <count> loopback UDP ports for this test. Each end-to-end
+# test has a block of 900 ports of its own, so tests that ctest runs side by side never share one,
+# and every block lies above the kernel's ephemeral range (32768-60999 by default), so a port the
+# kernel hands to another program (a browser, an LCM sender, a free-port probe) is never one of
+# them. Within its block a test's ports follow its process id, for two checkouts tested at once.
+test_ports() {
+  local first
+  case "$1" in
+    mgc_sim_cli) first=61000 ;;
+    mgc_sim_site) first=61900 ;;
+    mgc_udp_loop) first=62800 ;;
+    black_box_kill) first=63700 ;;
+    mgc_site_process) first=64600 ;;
+    *) echo "test_ports: no port block for $1" >&2; exit 1 ;;
+  esac
+  echo $((first + ($$ % (900 / $2)) * $2))
+}
+
 # expect_bad <name> <regex for the single stderr line> <args...>
 expect_bad() {
   local name="$1" pattern="$2"

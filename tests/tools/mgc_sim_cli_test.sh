@@ -28,8 +28,8 @@ printf 'simulation:\n  faults: [bus-off@soon]\n' >>"$tmp/bad-fault.yaml"
 expect_bad "scenario fault that does not parse" "^$tmp/bad-fault.yaml:[0-9]+: simulation.faults\[0\]: fault \"bus-off@soon\": start time" \
   --scenario "$tmp/bad-fault.yaml" --duration 1
 
-# Two runs on loopback ports of their own.
-base=$((41000 + ($$ % 4000) * 2))
+# Runs on loopback ports of their own: three pairs, then one pair again and again.
+base=$(test_ports mgc_sim_cli 8)
 run_pair() {  # run_pair <name> <busmon exit expected> <mgc-sim extra args...>
   local name="$1" want="$2"
   shift 2

@@ -30,8 +30,8 @@ carrier_size=$(vec carrier_size_m)
 carrier_centre=$(vec carrier_centre_m)
 [ -n "$carrier_size" ] && [ -n "$carrier_centre" ] || fail "no carrier geometry in grove-tms870.yaml"
 
-# This test's ports, apart from the other end-to-end tests' ranges.
-base=$((43000 + ($$ % 1000) * 4))
+# This test's ports: two per machine.
+base=$(test_ports mgc_sim_site 4)
 load_size="2.0, 2.0, 2.0"
 sling_m=2.0
 

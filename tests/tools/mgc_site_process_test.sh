@@ -38,10 +38,10 @@ cli="$sim"
 expect_bad "mgc-sim: unknown machine id" 'crossing-cranes.yaml.*machines' --site "$site" --machine-id 7 --duration 1
 cli="$mgc"
 
-# This test's ports: the buses (UDP, two per machine) and the LCM groups, apart from the other
-# end-to-end tests' ranges (mgc_sim_cli 41000.., mgc_udp_loop 49000..).
-base=$((55000 + ($$ % 1000) * 6))
-lcm_port=$((20000 + ($$ % 5000) * 4))
+# This test's ports: the buses (UDP, two per machine, machines 1-3) and the LCM groups, these
+# below the kernel's ephemeral range (from 32768).
+base=$(test_ports mgc_site_process 8)
+lcm_port=$((20000 + ($$ % 3000) * 4))
 site_url="udpm://239.255.76.69:$lcm_port?ttl=0"
 feed_url() { echo "udpm://239.255.76.69:$((lcm_port + $1))?ttl=0"; }
 bus_pair() {  # bus_pair N: the machine's end, then the controller's
